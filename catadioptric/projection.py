@@ -1,0 +1,166 @@
+"""Back-projection (pixel -> reflected ray) and exact forward projection (point -> every pixel).
+
+All functions are batched over leading axes and work in float64. Results with
+several solutions carry a fixed-width axis (NaN-padded) and a ``valid`` mask.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._checks import as_float_array
+from .cameras import CatadioptricCamera
+from .mirrors import QuadricMirror
+from .solvers.reflection import reflect, route_degree, solve_reflection_points
+
+__all__ = ["Rays", "Projections", "backproject", "project", "intersect_mirror", "visibility"]
+
+
+@dataclass
+class Rays:
+    """Reflected rays: ``origins (..., 3)`` on the mirror, unit ``directions (..., 3)``, ``valid (...)``.
+
+    ``hit`` is True where the pixel's ray meets the mirror patch (origins and
+    directions are set there, NaN elsewhere); ``valid`` also requires that the
+    reflected ray leaves without meeting the patch again (a concave mirror can
+    send it back onto itself), so that the pixel sees the world along it.
+    """
+
+    origins: np.ndarray
+    directions: np.ndarray
+    valid: np.ndarray
+    hit: np.ndarray
+
+
+@dataclass
+class Projections:
+    """Every image of each point: ``uv (..., K, 2)``, ``mirror_points (..., K, 3)``, ``valid (..., K)``.
+
+    Entries are ordered valid first; ``in_image`` tells which valid pixels fall on
+    the image rectangle. Invalid entries that are still reflection points in the
+    patch (occluded, behind the camera) keep their coordinates; empty slots are NaN.
+    """
+
+    uv: np.ndarray
+    mirror_points: np.ndarray
+    valid: np.ndarray
+    in_image: np.ndarray
+
+
+def _quadratic_coeffs(mirror: QuadricMirror, o: np.ndarray, d: np.ndarray):
+    """``Omega(o + t d) = a t^2 + b t + c``."""
+    A, B, C = mirror.A, mirror.B, mirror.C
+    a = d[..., 0] ** 2 + d[..., 1] ** 2 + A * d[..., 2] ** 2
+    b = 2 * (o[..., 0] * d[..., 0] + o[..., 1] * d[..., 1] + A * o[..., 2] * d[..., 2]) + B * d[..., 2]
+    c = o[..., 0] ** 2 + o[..., 1] ** 2 + A * o[..., 2] ** 2 + B * o[..., 2] - C
+    return a, b, c
+
+
+def intersect_mirror(mirror: QuadricMirror, origins, directions, t_min: float = 0.0):
+    """First parameter ``t > t_min`` at which ``origins + t directions`` meets the mirror
+    patch (NaN where none); hits of the quadric outside the patch do not count."""
+    o = np.asarray(origins, dtype=float)
+    d = np.asarray(directions, dtype=float)
+    a, b, c = _quadratic_coeffs(mirror, o, d)
+    disc = b * b - 4 * a * c
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sq = np.sqrt(disc)
+        q = -0.5 * (b + np.copysign(sq, b))
+        t1 = q / a
+        t2 = c / q
+        lin = np.abs(a) <= 1e-14 * (np.abs(b) + np.abs(c) + 1e-300)
+        t1 = np.where(lin, -c / b, t1)
+        t2 = np.where(lin, np.nan, t2)
+    t1 = np.where(disc >= 0, t1, np.nan)
+    t2 = np.where(disc >= 0, t2, np.nan)
+    lo = np.fmin(t1, t2)
+    hi = np.fmax(t1, t2)
+    out = np.full(np.broadcast_shapes(a.shape), np.nan)
+    for t in (hi, lo):  # lo last so that it wins when both qualify
+        z = o[..., 2] + t * d[..., 2]
+        ok = (t > t_min) & (z >= mirror.z_min) & (z <= mirror.z_max)
+        out = np.where(ok, t, out)
+    return out
+
+
+def backproject(cam: CatadioptricCamera, uv) -> Rays:
+    uv = as_float_array(uv, "uv", 2)
+    d_cam = cam.pinhole.pixel_rays(uv)
+    d = d_cam @ cam.R_cam_from_mirror  # R^T d_cam, row-vector form
+    o = np.broadcast_to(cam.center, d.shape)
+    t = intersect_mirror(cam.mirror, o, d)
+    valid = np.isfinite(t)
+    r = o + t[..., None] * d
+    n = cam.mirror.normal(r)
+    out = reflect(d, n)
+    out /= np.linalg.norm(out, axis=-1, keepdims=True)
+    r = np.where(valid[..., None], r, np.nan)
+    out = np.where(valid[..., None], out, np.nan)
+    with np.errstate(invalid="ignore"):
+        again = np.isfinite(intersect_mirror(cam.mirror, r, out, t_min=1e-9 * cam.mirror.scale))
+    return Rays(r, out, valid & ~again, valid)
+
+
+def visibility(cam: CatadioptricCamera, r: np.ndarray, target: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """For reflection points ``r (..., 3)`` of homogeneous targets ``(target, w)``: True where the
+    camera ray reaches ``r`` without meeting the patch first, the reflected ray reaches the
+    target without meeting the patch again, and ``r`` is in front of the camera."""
+    m = cam.mirror
+    c = cam.center
+    eps = 1e-9
+    # camera ray c + t (r - c): t = 1 is a root; the other is the product of roots c/a
+    d = r - c
+    a, b, cc = _quadratic_coeffs(m, np.broadcast_to(c, r.shape), d)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_other = cc / a
+    zo = c[2] + t_other * d[..., 2]
+    blocked_in = (t_other > eps) & (t_other < 1 - eps) & (zo >= m.z_min) & (zo <= m.z_max)
+    # reflected ray r + t v, v = target - w r: t = 0 is a root; the other is -b/a
+    v = target - w[..., None] * r
+    a2, b2, _ = _quadratic_coeffs(m, r, v)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t2 = -b2 / a2
+    zo2 = r[..., 2] + t2 * v[..., 2]
+    t_end = np.where(w > 0.5, 1.0 - eps, np.inf)
+    blocked_out = (t2 > eps) & (t2 < t_end) & (zo2 >= m.z_min) & (zo2 <= m.z_max)
+    front = cam.to_camera(r)[..., 2] > 0
+    return ~blocked_in & ~blocked_out & front
+
+
+CHUNK = 1 << 16  # targets per batch: large enough to amortise numpy, small enough to stay in cache
+
+
+def solve_targets(cam: CatadioptricCamera, targets: np.ndarray, w: float, backward: bool = False):
+    """Reflection points of flat targets ``(N, 3)``: points, forward flags, found mask, visibility."""
+    m = cam.mirror
+    parts = [solve_reflection_points(m.A, m.B, m.C, m.z_min, m.z_max, cam.center, targets[i:i + CHUNK],
+                                     np.full(len(targets[i:i + CHUNK]), float(w)), scale=m.scale, backward=backward)
+             for i in range(0, max(len(targets), 1), CHUNK)]
+    sol = parts[0] if len(parts) == 1 else type(parts[0])(*(np.concatenate([getattr(p, f) for p in parts])
+                                                            for f in ("points", "forward", "found")))
+    r = sol.points
+    tg = np.broadcast_to(targets[:, None, :], r.shape)
+    ww = np.full(r.shape[:-1], float(w))
+    with np.errstate(invalid="ignore"):
+        vis = visibility(cam, np.nan_to_num(r), tg, ww) & sol.found
+    return sol, vis
+
+
+def project(cam: CatadioptricCamera, points) -> Projections:
+    pts = as_float_array(points, "points", 3)
+    shape = pts.shape[:-1]
+    flat = pts.reshape(-1, 3)
+    sol, vis = solve_targets(cam, flat, 1.0)
+    keep = sol.found & sol.forward
+    valid = keep & vis
+    r = np.where(keep[..., None], sol.points, np.nan)
+    # valid first, then the other reflection points; stable within each group
+    order = np.argsort(~valid + 2 * ~keep, axis=1, kind="stable")
+    r = np.take_along_axis(r, order[..., None], axis=1)
+    valid = np.take_along_axis(valid, order, axis=1)
+    uv = cam.pixels_of_mirror_points(r)
+    K = r.shape[1]
+    in_img = valid & cam.pinhole.in_image(uv)
+    return Projections(uv.reshape(shape + (K, 2)), r.reshape(shape + (K, 3)), valid.reshape(shape + (K,)),
+                       in_img.reshape(shape + (K,)))

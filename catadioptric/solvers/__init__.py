@@ -1,0 +1,1 @@
+"""Polynomial kernels and the reflection-point solvers behind projection and vanishing points."""

@@ -1,0 +1,244 @@
+"""Batched polynomial kernels: arithmetic on coefficient arrays and real roots in [-1, 1].
+
+Polynomials are coefficient arrays in ascending powers along the last axis,
+``p[..., k]`` multiplying ``t**k``; every function works on a whole batch at
+once, with Python loops over the (small) degree only, never over the batch.
+
+Real roots in an interval are isolated with the Bernstein form and Descartes'
+rule of signs, subdividing with de Casteljau's algorithm, and refined with a
+bracketed Newton iteration. Only roots inside the interval are ever touched,
+which is what makes the reflection solvers fast: the mirror patch fixes the
+interval of interest.
+"""
+from __future__ import annotations
+
+from functools import lru_cache
+from math import comb
+
+import numpy as np
+
+__all__ = [
+    "polymul",
+    "polyadd",
+    "polysub",
+    "polyval",
+    "polyder",
+    "deflate_linear",
+    "roots_in_unit_interval",
+]
+
+
+def _pad(p: np.ndarray, n: int) -> np.ndarray:
+    if p.shape[-1] >= n:
+        return p
+    pad = [(0, 0)] * (p.ndim - 1) + [(0, n - p.shape[-1])]
+    return np.pad(p, pad)
+
+
+def polyadd(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    n = max(p.shape[-1], q.shape[-1])
+    return _pad(p, n) + _pad(q, n)
+
+
+def polysub(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    n = max(p.shape[-1], q.shape[-1])
+    return _pad(p, n) - _pad(q, n)
+
+
+@lru_cache(maxsize=None)
+def _conv_matrix(n: int, m: int) -> np.ndarray:
+    T = np.zeros((n * m, n + m - 1))
+    for i in range(n):
+        for j in range(m):
+            T[i * m + j, i + j] = 1.0
+    return T
+
+
+def polymul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Product of batched polynomials (broadcasting over leading axes)."""
+    n, m = p.shape[-1], q.shape[-1]
+    outer = p[..., :, None] * q[..., None, :]
+    return outer.reshape(outer.shape[:-2] + (n * m,)) @ _conv_matrix(n, m)
+
+
+def polyval(p: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Horner evaluation of ``p[..., :]`` at ``t`` (broadcast against ``p[..., 0]``)."""
+    out = np.broadcast_to(p[..., -1], np.broadcast_shapes(p.shape[:-1], np.shape(t))).copy()
+    for k in range(p.shape[-1] - 2, -1, -1):
+        out *= t
+        out += p[..., k]
+    return out
+
+
+def polyder(p: np.ndarray) -> np.ndarray:
+    n = p.shape[-1]
+    if n == 1:
+        return np.zeros_like(p)
+    return p[..., 1:] * np.arange(1, n, dtype=float)
+
+
+def deflate_linear(p: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """Exact quotient ``p / e`` for batched linear ``e = e0 + e1 t`` dividing ``p``.
+
+    The division runs from the side that is numerically stable for the root
+    of ``e``: from the leading coefficient when that root lies inside the unit
+    disc, from the constant term otherwise (and for constant ``e``). The
+    remainder, which is rounding noise when ``e`` divides ``p``, is dropped.
+    """
+    e0, e1 = e[..., 0], e[..., 1]
+    n = p.shape[-1] - 1
+    forward = np.abs(e1) > np.abs(e0)  # root -e0/e1 inside the unit disc
+    q = np.zeros(p.shape[:-1] + (n,))
+    # forward: from the top, q[n-1] = p[n]/e1, q[k-1] = (p[k] - e0 q[k]) / e1
+    with np.errstate(divide="ignore", invalid="ignore"):
+        qf = np.zeros_like(q)
+        qf[..., n - 1] = p[..., n] / e1
+        for k in range(n - 1, 0, -1):
+            qf[..., k - 1] = (p[..., k] - e0 * qf[..., k]) / e1
+        # backward: from the bottom, q[0] = p[0]/e0, q[k] = (p[k] - e1 q[k-1]) / e0
+        qb = np.zeros_like(q)
+        qb[..., 0] = p[..., 0] / e0
+        for k in range(1, n):
+            qb[..., k] = (p[..., k] - e1 * qb[..., k - 1]) / e0
+    q = np.where(forward[..., None], qf, qb)
+    return q
+
+
+@lru_cache(maxsize=None)
+def _bernstein_matrix(n: int) -> np.ndarray:
+    """Matrix T with ``b = a @ T``: monomial coefficients on t in [-1, 1] to the
+    Bernstein coefficients of degree n on u in [0, 1], t = 2u - 1."""
+    # monomial in t -> monomial in u: t^k = (2u - 1)^k
+    M = np.zeros((n + 1, n + 1))
+    for k in range(n + 1):
+        for j in range(k + 1):
+            M[k, j] = comb(k, j) * 2.0**j * (-1.0) ** (k - j)
+    # monomial in u -> Bernstein: b_i = sum_{j<=i} C(i,j)/C(n,j) m_j
+    W = np.zeros((n + 1, n + 1))
+    for j in range(n + 1):
+        for i in range(j, n + 1):
+            W[j, i] = comb(i, j) / comb(n, j)
+    return M @ W
+
+
+def _sign_changes(b: np.ndarray) -> np.ndarray:
+    s = b >= 0.0  # zeros count as positive: the count stays an upper bound of the same parity
+    return np.count_nonzero(s[:, 1:] != s[:, :-1], axis=1)
+
+
+def _de_casteljau_halves(b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    n = b.shape[1] - 1
+    left = np.empty_like(b)
+    right = np.empty_like(b)
+    cur = b
+    left[:, 0] = cur[:, 0]
+    right[:, n] = cur[:, n]
+    for k in range(1, n + 1):
+        cur = 0.5 * (cur[:, :-1] + cur[:, 1:])
+        left[:, k] = cur[:, 0]
+        right[:, n - k] = cur[:, -1]
+    return left, right
+
+
+def roots_in_unit_interval(
+    p: np.ndarray, *, max_depth: int = 48, newton_iters: int = 40
+) -> tuple[np.ndarray, np.ndarray]:
+    """All real roots in [-1, 1] of a batch of polynomials ``p`` of shape (M, n+1).
+
+    Returns ``(index, t)``: flat arrays, ``index[i]`` the row of ``p`` whose root is
+    ``t[i]``. Roots are isolated exactly by Descartes' rule on Bernstein
+    coefficients (an interval whose coefficients change sign once holds exactly
+    one root); clusters narrower than ``2**-max_depth`` (multiple roots) give
+    their midpoint. Rows that vanish identically give no roots.
+    """
+    p = np.asarray(p, dtype=float)
+    M, n1 = p.shape
+    n = n1 - 1
+    if M == 0 or n < 1:
+        return np.zeros(0, dtype=np.intp), np.zeros(0)
+    scale = np.max(np.abs(p), axis=1)
+    live = scale > 0
+    pn = np.zeros_like(p)
+    pn[live] = p[live] / scale[live, None]
+    b = pn @ _bernstein_matrix(n)
+    idx = np.nonzero(live)[0]
+    b = b[live]
+    lo = np.zeros(len(idx))
+    width = 1.0
+    out_idx, out_lo, out_hi, out_exact = [], [], [], []
+    # exact roots at the interval's ends
+    for end, col in ((0.0, 0), (1.0, n)):
+        z = b[:, col] == 0.0
+        if np.any(z):
+            out_idx.append(idx[z])
+            out_lo.append(np.full(np.count_nonzero(z), end))
+            out_hi.append(np.full(np.count_nonzero(z), end))
+    for depth in range(max_depth + 1):
+        if len(idx) == 0:
+            break
+        v = _sign_changes(b)
+        one = v == 1
+        if np.any(one):
+            out_idx.append(idx[one])
+            out_lo.append(lo[one])
+            out_hi.append(lo[one] + width)
+        many = v >= 2
+        if depth == max_depth:
+            if np.any(many):
+                mid = lo[many] + 0.5 * width
+                out_idx.append(idx[many])
+                out_lo.append(mid)
+                out_hi.append(mid)
+            break
+        if not np.any(many):
+            break
+        idx, b, lo = idx[many], b[many], lo[many]
+        left, right = _de_casteljau_halves(b)
+        half = 0.5 * width
+        # a zero exactly at the split point is a root of its own
+        z = left[:, n] == 0.0
+        if np.any(z):
+            out_idx.append(idx[z])
+            out_lo.append(lo[z] + half)
+            out_hi.append(lo[z] + half)
+        idx = np.concatenate([idx, idx])
+        b = np.concatenate([left, right])
+        lo = np.concatenate([lo, lo + half])
+        width = half
+    if not out_idx:
+        return np.zeros(0, dtype=np.intp), np.zeros(0)
+    ridx = np.concatenate(out_idx)
+    a = np.concatenate(out_lo) * 2.0 - 1.0
+    c = np.concatenate(out_hi) * 2.0 - 1.0
+    t = _refine_bracketed(pn[ridx], a, c, newton_iters)
+    order = np.lexsort((t, ridx))
+    return ridx[order], t[order]
+
+
+def _refine_bracketed(p: np.ndarray, a: np.ndarray, c: np.ndarray, iters: int) -> np.ndarray:
+    """Safeguarded Newton on brackets [a, c] holding one sign change (or a == c).
+
+    Works on the still-active brackets only, so the cost follows the slowest root
+    of each batch, not the batch size."""
+    dp = polyder(p)
+    t = 0.5 * (a + c)
+    sa = np.sign(polyval(p, a))
+    act = np.nonzero(a < c)[0]
+    for _ in range(iters):
+        if len(act) == 0:
+            break
+        pa, dpa, ta, aa, ca, sa_ = p[act], dp[act], t[act], a[act], c[act], sa[act]
+        f = polyval(pa, ta)
+        df = polyval(dpa, ta)
+        same = np.sign(f) == sa_
+        aa = np.where(same, ta, aa)
+        ca = np.where(same, ca, ta)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tn = ta - f / df
+        bad = ~np.isfinite(tn) | (tn <= np.minimum(aa, ca)) | (tn >= np.maximum(aa, ca))
+        tn = np.where(bad, 0.5 * (aa + ca), tn)
+        done = (f == 0.0) | (np.abs(ca - aa) <= 1e-15) | (np.abs(tn - ta) <= 4e-16)
+        t[act] = np.where(f == 0.0, ta, tn)
+        a[act], c[act] = aa, ca
+        act = act[~done]
+    return t
