@@ -1,24 +1,22 @@
-"""The ``catadioptric`` command. Subcommands import their heavy dependencies lazily."""
+"""The ``catadioptric`` command. Each subcommand lives with its stage and imports its
+heavy dependencies only when it runs."""
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 
-
-def _demo(args) -> int:
-    from .demo import run_geometry_demo
-
-    run_geometry_demo(args.out, rig=args.rig)
-    return 0
+# modules that define ``register(subparsers)``; each adds its subcommand(s)
+SUBCOMMAND_MODULES = [
+    "catadioptric.demo",
+]
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="catadioptric", description=__doc__)
+    p = argparse.ArgumentParser(prog="catadioptric", description="Exact geometry of catadioptric cameras.")
     sub = p.add_subparsers(dest="command", required=True)
-    d = sub.add_parser("demo", help="geometry demo: back-projection, forward projection, images of 3D lines")
-    d.add_argument("--out", default="out/demo", help="output folder (default: out/demo)")
-    d.add_argument("--rig", default="hyperboloid_9pct", help="rig preset (default: hyperboloid_9pct)")
-    d.set_defaults(func=_demo)
+    for name in SUBCOMMAND_MODULES:
+        importlib.import_module(name).register(sub)
     return p
 
 
@@ -27,7 +25,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     try:
         return int(args.func(args) or 0)
-    except Exception as exc:  # report bad input clearly, keep tracebacks for real bugs
+    except Exception as exc:  # bad input gets a one-line message; real bugs keep their traceback
         from ._checks import CatadioptricError
 
         if isinstance(exc, CatadioptricError):

@@ -65,3 +65,10 @@ def run_geometry_demo(out_dir: str, rig: str = "hyperboloid_9pct") -> dict:
     os.replace(tmp, path)
     print(f"wrote {path}")
     return {"round_trip_max_px": float(err.max()), "png": path}
+
+
+def register(sub) -> None:
+    d = sub.add_parser("demo", help="geometry demo: back-projection, forward projection, images of 3D lines")
+    d.add_argument("--out", default="out/demo", help="output folder (default: out/demo)")
+    d.add_argument("--rig", default="hyperboloid_9pct", help="rig preset (default: hyperboloid_9pct)")
+    d.set_defaults(func=lambda args: run_geometry_demo(args.out, rig=args.rig) and 0)
