@@ -8,6 +8,7 @@ z forward); a point ``X_M`` of the mirror frame has camera coordinates
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -171,6 +172,13 @@ class CatadioptricCamera:
     def is_axial(self) -> bool:
         """True when the camera centre lies on the mirror's axis (every reflected ray meets the axis)."""
         return bool(np.hypot(self.center[0], self.center[1]) <= 1e-12 * max(1.0, np.linalg.norm(self.center)))
+
+    @cached_property
+    def solver(self):
+        """The reflection-point solver of lowest degree for this configuration (docs/solvers.md)."""
+        from .solvers import select_solver
+
+        return select_solver(self.mirror, self.center, viewpoint=self.viewpoint)
 
     def to_camera(self, X_M) -> np.ndarray:
         X = np.asarray(X_M, dtype=float)

@@ -12,7 +12,7 @@ import numpy as np
 from ._checks import as_float_array
 from .cameras import CatadioptricCamera
 from .mirrors import QuadricMirror
-from .solvers.reflection import reflect, route_degree, solve_reflection_points
+from .solvers.reflection import reflect
 
 __all__ = ["Rays", "Projections", "backproject", "project", "intersect_mirror", "visibility"]
 
@@ -133,9 +133,8 @@ CHUNK = 1 << 16  # targets per batch: large enough to amortise numpy, small enou
 
 def solve_targets(cam: CatadioptricCamera, targets: np.ndarray, w: float, backward: bool = False):
     """Reflection points of flat targets ``(N, 3)``: points, forward flags, found mask, visibility."""
-    m = cam.mirror
-    parts = [solve_reflection_points(m.A, m.B, m.C, m.z_min, m.z_max, cam.center, targets[i:i + CHUNK],
-                                     np.full(len(targets[i:i + CHUNK]), float(w)), scale=m.scale, backward=backward)
+    solver = cam.solver
+    parts = [solver.solve(targets[i:i + CHUNK], float(w), backward=backward)
              for i in range(0, max(len(targets), 1), CHUNK)]
     sol = parts[0] if len(parts) == 1 else type(parts[0])(*(np.concatenate([getattr(p, f) for p in parts])
                                                             for f in ("points", "forward", "found")))

@@ -215,14 +215,19 @@ def roots_in_unit_interval(
     return ridx[order], t[order]
 
 
-def _refine_bracketed(p: np.ndarray, a: np.ndarray, c: np.ndarray, iters: int) -> np.ndarray:
+def _refine_bracketed(p: np.ndarray, a: np.ndarray, c: np.ndarray, iters: int, tol: float = 1e-14) -> np.ndarray:
     """Safeguarded Newton on brackets [a, c] holding one sign change (or a == c).
 
-    Works on the still-active brackets only, so the cost follows the slowest root
-    of each batch, not the batch size."""
+    Starts from the secant point of the bracket, falls back to bisection when a
+    Newton step leaves the bracket, and works on the still-active brackets only.
+    Stops at steps below ``tol`` (the callers polish further on the full system)."""
     dp = polyder(p)
-    t = 0.5 * (a + c)
-    sa = np.sign(polyval(p, a))
+    fa = polyval(p, a)
+    fc = polyval(p, c)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = a - fa * (c - a) / (fc - fa)
+    t = np.where(np.isfinite(t) & (t >= a) & (t <= c), t, 0.5 * (a + c))
+    sa = np.sign(fa)
     act = np.nonzero(a < c)[0]
     for _ in range(iters):
         if len(act) == 0:
@@ -237,7 +242,7 @@ def _refine_bracketed(p: np.ndarray, a: np.ndarray, c: np.ndarray, iters: int) -
             tn = ta - f / df
         bad = ~np.isfinite(tn) | (tn <= np.minimum(aa, ca)) | (tn >= np.maximum(aa, ca))
         tn = np.where(bad, 0.5 * (aa + ca), tn)
-        done = (f == 0.0) | (np.abs(ca - aa) <= 1e-15) | (np.abs(tn - ta) <= 4e-16)
+        done = (f == 0.0) | (np.abs(ca - aa) <= tol) | (~bad & (np.abs(tn - ta) <= tol))
         t[act] = np.where(f == 0.0, ta, tn)
         a[act], c[act] = aa, ca
         act = act[~done]

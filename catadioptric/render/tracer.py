@@ -1,0 +1,309 @@
+"""Our float64 label tracer: the ground truth every renderer is checked against.
+
+Pixel-centre rays are reflected on the exact quadric by :func:`catadioptric.projection.backproject`
+(float64) and intersected with the scene's triangles in float64 by a bounding-volume
+hierarchy traversed breadth-first over whole batches of rays with numpy:
+
+* build: a balanced median-split tree in complete-binary layout (node ``i`` of level ``l``
+  covers the triangles ``[floor(i N / 2^l), floor((i + 1) N / 2^l))`` of a permutation that
+  is re-sorted, level by level, along each node's longest centroid extent);
+* traversal: (ray, node) pairs go down the levels together (one slab test per pair and
+  level); at the leaves the pairs are visited nearest box first, in rounds, so that a ray
+  stops testing triangles once its nearest hit is closer than its next box;
+* triangles: Moeller-Trumbore in float64.
+
+Labels (docs/formats.md, "Datasets"): ``0`` nothing hit (sky), ``-1`` the pixel does not
+see the mirror, ``-2`` the reflected ray meets the mirror again; otherwise the label of
+the first object hit.
+"""
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._checks import CatadioptricError, as_float_array
+
+__all__ = ["TriangleBVH", "scene_bvh", "trace_labels", "trace_rays", "scene_digest",
+           "LABEL_SKY", "LABEL_NO_MIRROR", "LABEL_MIRROR_AGAIN"]
+
+LABEL_SKY = 0
+LABEL_NO_MIRROR = -1
+LABEL_MIRROR_AGAIN = -2
+
+LEAF = 4            # triangles per leaf (at most)
+RAY_CHUNK = 1 << 15  # rays traversed together (bounds the memory of the pair lists)
+_BARY_TOL = 1e-12    # barycentric slack: a ray through a shared edge hits one of its triangles
+
+
+@dataclass
+class Hits:
+    """First hits of rays: ``t (N,)`` (inf where none), ``triangle (N,)`` (-1 where none)."""
+
+    t: np.ndarray
+    triangle: np.ndarray
+
+
+class TriangleBVH:
+    """Float64 bounding-volume hierarchy over triangles ``vertices[faces]``."""
+
+    def __init__(self, vertices, faces, triangle_labels=None):
+        v = as_float_array(vertices, "vertices", 3)
+        f = np.asarray(faces)
+        if f.ndim != 2 or f.shape[1] != 3 or not np.issubdtype(f.dtype, np.integer):
+            raise CatadioptricError(f"faces: expected an integer array of shape (F, 3), got {f.dtype} {f.shape}")
+        if len(f) and (f.min() < 0 or f.max() >= len(v)):
+            raise CatadioptricError(f"faces: expected vertex indices in [0, {len(v)}), got range "
+                                    f"[{int(f.min())}, {int(f.max())}]")
+        tri = v[f]  # (N, 3, 3)
+        self.n = len(tri)
+        self.labels = (np.zeros(self.n, np.int64) if triangle_labels is None
+                       else np.asarray(triangle_labels, dtype=np.int64))
+        if self.labels.shape != (self.n,):
+            raise CatadioptricError(f"triangle_labels: expected shape ({self.n},), got {self.labels.shape}")
+        if self.n == 0:
+            self.depth = 0
+            return
+        cen = tri.mean(axis=1)
+        depth = 0  # smallest depth whose leaves hold at most LEAF triangles (none empty)
+        while -(-self.n >> depth) > LEAF and (2 << depth) <= self.n:
+            depth += 1
+        perm = np.arange(self.n)
+        for level in range(depth):
+            bounds = (np.arange((1 << level) + 1) * self.n) >> level
+            node = np.searchsorted(bounds, np.arange(self.n), side="right") - 1
+            c = cen[perm]
+            ext = np.maximum.reduceat(c, bounds[:-1], axis=0) - np.minimum.reduceat(c, bounds[:-1], axis=0)
+            axis = np.argmax(ext, axis=1)[node]
+            key = c[np.arange(self.n), axis]
+            perm = perm[np.lexsort((key, node))]
+        self.depth = depth
+        self.perm = perm
+        t = tri[perm]
+        self.v0 = t[:, 0].copy()
+        self.e1 = t[:, 1] - t[:, 0]
+        self.e2 = t[:, 2] - t[:, 0]
+        self.tri_labels = self.labels[perm]
+        nleaf = 1 << depth
+        self.leaf_bounds = (np.arange(nleaf + 1) * self.n) >> depth
+        lo = np.minimum.reduceat(t.min(axis=1), self.leaf_bounds[:-1], axis=0)
+        hi = np.maximum.reduceat(t.max(axis=1), self.leaf_bounds[:-1], axis=0)
+        pad = 1e-9 * (np.abs(lo) + np.abs(hi) + (hi - lo)) + 1e-12
+        lo, hi = lo - pad, hi + pad
+        # boxes per level as (6, nodes) rows lo_x, lo_y, lo_z, hi_x, hi_y, hi_z (one gather per level)
+        self.boxes = [None] * (depth + 1)
+        self.boxes[depth] = np.concatenate([lo.T, hi.T])
+        for level in range(depth - 1, -1, -1):
+            lo = np.minimum(lo[0::2], lo[1::2])
+            hi = np.maximum(hi[0::2], hi[1::2])
+            self.boxes[level] = np.concatenate([lo.T, hi.T])
+        self.leaf_size = int(np.max(np.diff(self.leaf_bounds)))
+
+    # ------------------------------------------------------------------ queries
+    def intersect(self, origins, directions, t_min: float = 0.0) -> Hits:
+        """First hit with ``t > t_min`` of each ray ``origins + t directions`` (float64)."""
+        o = as_float_array(origins, "origins", 3).reshape(-1, 3)
+        d = as_float_array(directions, "directions", 3).reshape(-1, 3)
+        if o.shape != d.shape:
+            raise CatadioptricError(f"origins, directions: expected the same shape, got {o.shape} and {d.shape}")
+        t = np.full(len(o), np.inf)
+        tri = np.full(len(o), -1, dtype=np.int64)
+        if self.n == 0:
+            return Hits(t, tri)
+        for s in range(0, len(o), RAY_CHUNK):
+            tt, ii = self._intersect_chunk(o[s:s + RAY_CHUNK], d[s:s + RAY_CHUNK], t_min)
+            t[s:s + RAY_CHUNK] = tt
+            tri[s:s + RAY_CHUNK] = ii
+        return Hits(t, tri)
+
+    def _slab(self, level, nodes, o, inv, tmin):
+        """Entry distance of rays ``o, inv`` (3, P) into boxes ``nodes`` of ``level`` and whether they enter."""
+        bx = self.boxes[level][:, nodes]
+        near = np.full(len(nodes), tmin)
+        far = np.full(len(nodes), np.inf)
+        with np.errstate(invalid="ignore"):
+            for k in range(3):
+                t0 = (bx[k] - o[k]) * inv[k]
+                t1 = (bx[k + 3] - o[k]) * inv[k]
+                # NaN (0 * inf) where the origin lies on a slab plane of a parallel ray: fmax/fmin ignore it
+                np.fmax(near, np.minimum(t0, t1), out=near)
+                np.fmin(far, np.maximum(t0, t1), out=far)
+        return near, near <= far
+
+    def _intersect_chunk(self, o, d, t_min):
+        n = len(o)
+        with np.errstate(divide="ignore"):
+            inv = np.ascontiguousarray((1.0 / d).T)
+        oT = np.ascontiguousarray(o.T)
+        best_t = np.full(n, np.inf)
+        best_i = np.full(n, -1, dtype=np.int64)
+        rays = np.arange(n)
+        nodes = np.zeros(n, dtype=np.int64)
+        near, ok = self._slab(0, nodes, oT, inv, t_min)
+        rays, nodes, near = rays[ok], nodes[ok], near[ok]
+        for level in range(1, self.depth + 1):
+            rays = np.repeat(rays, 2)
+            nodes = np.repeat(nodes << 1, 2)
+            nodes[1::2] += 1
+            near, ok = self._slab(level, nodes, oT[:, rays], inv[:, rays], t_min)
+            rays, nodes, near = rays[ok], nodes[ok], near[ok]
+        if len(rays) == 0:
+            return best_t, best_i
+        # leaves, nearest box first per ray, in rounds of growing width
+        order = np.lexsort((near, rays))
+        rays, nodes, near = rays[order], nodes[order], near[order]
+        first = np.searchsorted(rays, rays, side="left")
+        rank = np.arange(len(rays)) - first
+        max_rank = int(rank.max())
+        lo_rank, width = 0, 1
+        while lo_rank <= max_rank:
+            sel = (rank >= lo_rank) & (rank < lo_rank + width)
+            r, nd, nr = rays[sel], nodes[sel], near[sel]
+            keep = nr <= best_t[r]
+            r, nd = r[keep], nd[keep]
+            if len(r):
+                self._test_leaves(r, nd, o, d, t_min, best_t, best_i)
+            lo_rank += width
+            width *= 2
+        return best_t, best_i
+
+    def _test_leaves(self, r, nd, o, d, t_min, best_t, best_i):
+        start = self.leaf_bounds[nd]
+        count = self.leaf_bounds[nd + 1] - start
+        k = np.arange(self.leaf_size)
+        m = k[None, :] < count[:, None]
+        rr = np.broadcast_to(r[:, None], m.shape)[m]
+        ti = (start[:, None] + k[None, :])[m]
+        t = _moller_trumbore(o[rr], d[rr], self.v0[ti], self.e1[ti], self.e2[ti], t_min)
+        hit = t < best_t[rr]
+        if not np.any(hit):
+            return
+        rr, ti, t = rr[hit], ti[hit], t[hit]
+        order = np.lexsort((ti, t, rr))  # nearest per ray; ties go to the lower triangle index
+        rr, ti, t = rr[order], ti[order], t[order]
+        head = np.ones(len(rr), bool)
+        head[1:] = rr[1:] != rr[:-1]
+        rr, ti, t = rr[head], ti[head], t[head]
+        better = t < best_t[rr]
+        best_t[rr[better]] = t[better]
+        best_i[rr[better]] = ti[better]
+
+    def labels_of(self, hits: Hits) -> np.ndarray:
+        """Labels of the triangles hit (``LABEL_SKY`` where nothing)."""
+        out = np.full(hits.triangle.shape, LABEL_SKY, dtype=np.int64)
+        ok = hits.triangle >= 0
+        out[ok] = self.tri_labels[hits.triangle[ok]]
+        return out
+
+    def original_index(self, triangle: np.ndarray) -> np.ndarray:
+        """Index in the input ``faces`` of triangles returned by :meth:`intersect` (-1 stays -1)."""
+        out = np.full(np.shape(triangle), -1, dtype=np.int64)
+        ok = triangle >= 0
+        out[ok] = self.perm[triangle[ok]]
+        return out
+
+
+def _moller_trumbore(o, d, v0, e1, e2, t_min):
+    """Ray-triangle distances (inf where no hit), float64, rows in parallel (component-wise for speed)."""
+    ox, oy, oz = o.T
+    dx, dy, dz = d.T
+    ax, ay, az = e1.T
+    bx, by, bz = e2.T
+    px, py, pz = dy * bz - dz * by, dz * bx - dx * bz, dx * by - dy * bx  # d x e2
+    det = ax * px + ay * py + az * pz
+    sx, sy, sz = ox - v0[:, 0], oy - v0[:, 1], oz - v0[:, 2]
+    qx, qy, qz = sy * az - sz * ay, sz * ax - sx * az, sx * ay - sy * ax  # s x e1
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / det
+        u = (sx * px + sy * py + sz * pz) * inv
+        v = (dx * qx + dy * qy + dz * qz) * inv
+        t = (bx * qx + by * qy + bz * qz) * inv
+    ok = (det != 0) & (u >= -_BARY_TOL) & (v >= -_BARY_TOL) & (u + v <= 1 + _BARY_TOL) & (t > t_min)
+    return np.where(ok, t, np.inf)
+
+
+# ---------------------------------------------------------------------- scenes
+def scene_digest(scene) -> str:
+    """A content hash of a Scene's geometry, labels and lines (stable across processes)."""
+    h = hashlib.sha256()
+    for obj in scene.objects:
+        h.update(f"{obj.name}|{int(obj.label)}|{obj.kind}|{tuple(float(c) for c in obj.color)}".encode())
+        h.update(np.ascontiguousarray(obj.vertices, dtype=np.float64).tobytes())
+        h.update(np.ascontiguousarray(obj.faces, dtype=np.int64).tobytes())
+    for a in (scene.segments, scene.segment_family, scene.families, scene.segment_label, scene.sun):
+        h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
+    h.update(f"{scene.name}|{scene.seed}".encode())
+    return h.hexdigest()
+
+
+_BVH_CACHE: dict = {}
+
+
+def scene_bvh(scene) -> TriangleBVH:
+    """The BVH of all the scene's triangles in W, labelled by object (cached per scene content)."""
+    key = getattr(scene, "_catadioptric_digest", None) or scene_digest(scene)
+    bvh = _BVH_CACHE.get(key)
+    if bvh is None:
+        verts, faces, labels = [], [], []
+        base = 0
+        for i, obj in enumerate(scene.objects):
+            v = as_float_array(obj.vertices, f"scene.objects[{i}].vertices", 3)
+            f = np.asarray(obj.faces, dtype=np.int64)
+            if f.ndim != 2 or f.shape[1] != 3:
+                raise CatadioptricError(f"scene.objects[{i}].faces: expected shape (F, 3), got {f.shape}")
+            if len(f) and (f.min() < 0 or f.max() >= len(v)):
+                raise CatadioptricError(f"scene.objects[{i}].faces: expected vertex indices in [0, {len(v)}), "
+                                        f"got range [{int(f.min())}, {int(f.max())}] (object {obj.name!r})")
+            if int(obj.label) <= 0:
+                raise CatadioptricError(f"scene.objects[{i}].label: expected a positive label (0 is the sky), "
+                                        f"got {obj.label!r} (object {obj.name!r})")
+            verts.append(v)
+            faces.append(f + base)
+            labels.append(np.full(len(f), int(obj.label), dtype=np.int64))
+            base += len(v)
+        if verts:
+            bvh = TriangleBVH(np.concatenate(verts), np.concatenate(faces), np.concatenate(labels))
+        else:
+            bvh = TriangleBVH(np.zeros((0, 3)), np.zeros((0, 3), np.int64))
+        if len(_BVH_CACHE) >= 4:
+            _BVH_CACHE.pop(next(iter(_BVH_CACHE)))
+        _BVH_CACHE[key] = bvh
+    return bvh
+
+
+@dataclass
+class TracedRays:
+    """Pixel-centre rays of a view traced in float64: the labels plus the geometry behind them."""
+
+    labels: np.ndarray        # (H, W) int32
+    origins_W: np.ndarray     # (H, W, 3) reflection points in W (NaN where the pixel misses the mirror)
+    directions_W: np.ndarray  # (H, W, 3) unit reflected directions in W
+    t: np.ndarray             # (H, W) distance to the first hit (inf: none)
+
+
+def trace_rays(scene, cam, pose, uv=None) -> TracedRays:
+    """Trace pixel rays (default: every pixel centre) of the rig ``cam`` placed by ``pose``
+    (``x_M = R x_W + t``) through the mirror into ``scene`` (in W), in float64."""
+    if uv is None:
+        uv = cam.pinhole.pixel_grid()
+    uv = as_float_array(uv, "uv", 2)
+    rays = cam.backproject(uv)
+    shape = uv.shape[:-1]
+    labels = np.full(shape, LABEL_NO_MIRROR, dtype=np.int32)
+    labels[rays.hit & ~rays.valid] = LABEL_MIRROR_AGAIN
+    o_W = np.where(rays.hit[..., None], (rays.origins - pose.t) @ pose.R, np.nan)
+    d_W = np.where(rays.hit[..., None], rays.directions @ pose.R, np.nan)
+    t = np.full(shape, np.inf)
+    ok = rays.valid
+    if np.any(ok):
+        bvh = scene_bvh(scene)
+        hits = bvh.intersect(o_W[ok], d_W[ok])
+        labels[ok] = bvh.labels_of(hits).astype(np.int32)
+        t[ok] = hits.t
+    return TracedRays(labels, o_W, d_W, t)
+
+
+def trace_labels(scene, cam, pose) -> np.ndarray:
+    """The exact label image ``(H, W)`` int32 of a view (see the module docstring for the values)."""
+    return trace_rays(scene, cam, pose).labels

@@ -1,0 +1,122 @@
+"""General solver: any axially symmetric quadric, a camera off the axis. Degree 8.
+
+The reflection points of a target ``h = (p, w)`` satisfy ``G(y, z) = 0`` and
+``H(y, z) = F^2 + (y^2 + A z^2 + B z - C) E^2 = 0`` (module constraints);
+``Res_y(G, H)`` has degree 10 in z and always contains the spurious factor
+``E(z)^2``. The quotient, the genuine octic, is a homogeneous polynomial of
+degree 4 in ``h``, so for one camera its nine coefficients are a fixed linear map
+of the 35 monomials of ``h``: one matrix product per batch. For vanishing points
+(w = 0) the octic is the paper's kappa_16 with the spurious ``kappa_1^2`` removed.
+
+Degenerate targets: for ``s = +-e1`` (in the frame where ``c = (0, c2, c3)``),
+``G`` vanishes identically; there ``d2 = d3 = 0`` gives ``Res_y(d2, d3)`` instead.
+
+Reference: Miraldo, Eiras, Ramalingam, CVPR 2018, Sec. 2.2 (corrected, see
+docs/solvers.md); Agrawal, Taguchi, Ramalingam, ECCV 2010 (degree 8 for an
+off-axis camera and a finite point).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import bivariate as bv
+from .constraints import coplanarity, general_resultant, reflected_yz, reflection_G, resultant_quadratic_linear
+from .polynomial import deflate_linear, polyval, roots_in_unit_interval
+from .reflection import ReflectionSolver, fit_homogeneous_map, monomials, rotation_to_yz
+
+_SCREEN = 1e-5
+
+
+def quad_roots(a, b, c):
+    """Both real roots of ``a y^2 + b y + c`` (NaN when complex; one root when linear)."""
+    disc = b * b - 4 * a * c
+    sq = np.sqrt(np.maximum(disc, 0.0))
+    sq = np.where(disc < -1e-12 * (b * b + np.abs(4 * a * c)), np.nan, sq)
+    qq = -0.5 * (b + np.where(b >= 0, sq, -sq))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        y1 = qq / a
+        y2 = c / qq
+        lin = np.abs(a) <= 1e-14 * (np.abs(b) + np.abs(c))
+        y1 = np.where(lin, -c / b, y1)
+        y2 = np.where(lin, np.nan, y2)
+    return y1, y2
+
+
+class GeneralSolver(ReflectionSolver):
+    name = "general"
+    degree = 8
+    reference = "Miraldo et al. CVPR 2018 Sec. 2.2 (kappa_16 / kappa_1^2); Agrawal et al. ECCV 2010"
+
+    def __init__(self, A, B, C, z_min, z_max, center, scale):
+        super().__init__(A, B, C, z_min, z_max, center, scale)
+        cs, sn = rotation_to_yz(self.c[0], self.c[1])
+        self._cs, self._sn = float(cs), float(sn)
+        self.c2, self.c3 = float(np.hypot(self.c[0], self.c[1])), float(self.c[2])
+        self._c_frame = np.array([0.0, self.c2, self.c3])
+        a = (self.A, self.B, self.C, self.c2, self.c3, self.zt)
+
+        def octic(h):
+            R, E = general_resultant(*a, h)
+            return deflate_linear(deflate_linear(R, E), E)
+
+        self._exps, self._qmap = fit_homogeneous_map(octic, 4, 4)
+        basis = np.eye(4)
+        Gb = reflection_G(*a, basis)
+        self._gmap = np.stack([bv.y_coefficient(Gb, k, 5) for k in (2, 1, 0)], axis=1).reshape(4, 15)
+        self._emap = coplanarity(*a, basis)[0]
+        E, F1, F0 = coplanarity(*a, np.array([[1.0, 0, 0, 0]]))
+        self._f1, self._f0 = F1[0], F0[0]  # F = p1 (f1 y + f0)
+
+    def _frame(self, h):
+        N = len(h)
+        cs, sn = np.full(N, self._cs), np.full(N, self._sn)
+        hr = h.copy()
+        hr[:, 0] = self._cs * h[:, 0] - self._sn * h[:, 1]
+        hr[:, 1] = self._sn * h[:, 0] + self._cs * h[:, 1]
+        return hr, cs, sn
+
+    def _candidates(self, h):
+        e1 = (np.abs(h[:, 1]) <= 1e-12) & (np.abs(h[:, 2]) <= 1e-12) & (h[:, 3] == 0)
+        gen = np.nonzero(~e1)[0]
+        hg = h[gen]
+        Q = monomials(hg, self._exps) @ self._qmap
+        ridx, t = roots_in_unit_interval(Q)
+        owner = gen[ridx]
+        hh = h[owner]
+        z = self.zt[0] + self.zt[1] * t
+        rho2 = self.C - self.A * z * z - self.B * z
+        G = (hh @ self._gmap).reshape(-1, 3, 5)
+        y1, y2 = quad_roots(polyval(G[:, 0], t), polyval(G[:, 1], t), polyval(G[:, 2], t))
+        ys = np.stack([y1, y1, y2, y2], axis=-1)
+        xs = np.sqrt(np.maximum(rho2[:, None] - ys**2, 0.0)) * np.array([1.0, -1.0, 1.0, -1.0])
+        Ev = polyval(hh @ self._emap, t)[:, None]
+        F1v = (hh[:, 0] * polyval(self._f1, t))[:, None]
+        F0v = (hh[:, 0] * polyval(self._f0, t))[:, None]
+        res = np.abs(Ev * xs + F1v * ys + F0v)
+        sc = np.abs(Ev * xs) + np.abs(F1v * ys) + np.abs(F0v) + 1e-300
+        keep = (res <= np.maximum(_SCREEN * sc, 1e-12)) & (rho2[:, None] - ys**2 >= -1e-7) & np.isfinite(ys)
+        kk = np.nonzero(keep)
+        owners = [owner[kk[0]]]
+        pts = [np.stack([xs[kk], ys[kk], z[kk[0]]], axis=-1)]
+        if np.any(e1):
+            o, r = self._e1_candidates(np.nonzero(e1)[0])
+            owners.append(o)
+            pts.append(r)
+        return np.concatenate(owners), np.concatenate(pts)
+
+    def _e1_candidates(self, idx):
+        """Directions along +-e1: the reflected ray is along x, so d2 = d3 = 0 (target-free)."""
+        d2, d3 = reflected_yz(self.A, self.B, self.C, self.c2, self.c3, self.zt)
+        a, b, c = (bv.y_coefficient(d2, k, 6) for k in (2, 1, 0))
+        f1, f0 = (bv.y_coefficient(d3, k, 6) for k in (1, 0))
+        R = resultant_quadratic_linear(a, b, c, f1, f0)
+        _, t = roots_in_unit_interval(R[None, :])
+        z = self.zt[0] + self.zt[1] * t
+        rho2 = self.C - self.A * z * z - self.B * z
+        with np.errstate(divide="ignore", invalid="ignore"):
+            y = -polyval(f0, t) / polyval(f1, t)
+        x = np.sqrt(np.maximum(rho2 - y * y, 0.0))
+        ok = np.isfinite(y) & (rho2 - y * y >= -1e-7)
+        base = np.concatenate([np.stack([x, y, z], -1)[ok], np.stack([-x, y, z], -1)[ok]])
+        owner = np.repeat(idx, len(base))
+        return owner, np.tile(base, (len(idx), 1))

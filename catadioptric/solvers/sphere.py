@@ -1,0 +1,66 @@
+"""Sphere solver: any camera position. Degree 4.
+
+Every line through the centre of a sphere is an axis of symmetry, so any camera
+is axial for the axis through the centre and the camera. The solver changes to
+that frame, solves the axial problem (degree 4 for a sphere: Agrawal, Taguchi,
+Ramalingam, ECCV 2010) over the heights the patch spans there, and keeps the
+solutions inside the original patch.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .axial import AxialSolver
+from .reflection import ReflectionSolutions, gather
+
+
+class SphereSolver:
+    name = "sphere"
+    degree = 4
+    reference = "Agrawal, Taguchi, Ramalingam, ECCV 2010 (sphere, degree 4); Miraldo et al. CVPR 2018 Table 1"
+
+    def __init__(self, A, B, C, z_min, z_max, center, scale):
+        self.o = np.array([0.0, 0.0, -B / 2.0])
+        self.R = float(np.sqrt(C + B * B / 4.0))
+        self.z_min, self.z_max = float(z_min), float(z_max)
+        v = np.asarray(center, float) - self.o
+        dist = float(np.linalg.norm(v))
+        n = v / dist if dist > 0 else np.array([0.0, 0.0, 1.0])
+        # an orthonormal frame whose third axis points from the centre to the camera
+        a = np.array([1.0, 0, 0]) if abs(n[0]) < 0.9 else np.array([0, 1.0, 0])
+        e1 = np.cross(a, n)
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(n, e1)
+        self.Q = np.stack([e1, e2, n])  # rows: new axes in M
+        lo, hi = self._height_range(n)
+        self.axial = AxialSolver(1.0, 0.0, self.R**2, lo, hi, np.array([0.0, 0.0, dist]), scale)
+
+    @property
+    def max_solutions(self) -> int:
+        return self.degree
+
+    def _height_range(self, n):
+        """Range of the new height n . (r - o) over the patch of the sphere."""
+        R = self.R
+        vals = []
+        for z in (self.z_min, self.z_max):
+            zz = float(np.clip(z - self.o[2], -R, R))
+            rho = np.sqrt(max(R * R - zz * zz, 0.0))
+            nxy = np.hypot(n[0], n[1])
+            vals += [n[2] * zz - rho * nxy, n[2] * zz + rho * nxy]
+        for sgn in (1.0, -1.0):  # the points of the sphere along +-n
+            if self.z_min <= self.o[2] + sgn * R * n[2] <= self.z_max:
+                vals.append(sgn * R)
+        lo, hi = max(min(vals), -R), min(max(vals), R)
+        pad = 1e-9 * R
+        return lo - pad, hi + pad
+
+    def solve(self, targets, w, *, backward=False) -> ReflectionSolutions:
+        targets = np.asarray(targets, dtype=float)
+        w = np.broadcast_to(np.asarray(w, float), (len(targets),))
+        tf = np.where(w[:, None] > 0, (targets - self.o) @ self.Q.T, targets @ self.Q.T)
+        sol = self.axial.solve(tf, w, backward=backward)
+        r = sol.points @ self.Q + self.o
+        inside = sol.found & (r[..., 2] >= self.z_min - 1e-12 * self.R) & (r[..., 2] <= self.z_max + 1e-12 * self.R)
+        n_idx, k_idx = np.nonzero(inside)
+        return gather(len(targets), n_idx, r[n_idx, k_idx], sol.forward[n_idx, k_idx], self.degree)
