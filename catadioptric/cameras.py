@@ -200,6 +200,24 @@ class CatadioptricCamera:
 
         return project(self, points)
 
+    def vanishing_points(self, directions, *, which: str = "+s"):
+        """Vanishing points of directions ``(..., 3)`` in M (see :func:`catadioptric.vanishing.vanishing_points`)."""
+        from .vanishing import vanishing_points
+
+        return vanishing_points(self, directions, which=which)
+
+    def directions_from_vanishing_points(self, uv):
+        """Unit oriented directions ``(..., 3)`` whose vanishing point is pixel ``uv (..., 2)``."""
+        from .vanishing import directions_from_vanishing_points
+
+        return directions_from_vanishing_points(self, uv)
+
+    def vanishing_curve(self, normal, **kwargs):
+        """The vanishing curve of the plane with ``normal`` (M): a list of polylines."""
+        from .vanishing import vanishing_curve
+
+        return vanishing_curve(self, normal, **kwargs)
+
     def to_dict(self) -> dict:
         return {
             "mirror": self.mirror.to_dict(),

@@ -64,7 +64,9 @@ class AxialSolver(ReflectionSolver):
         G = (h3[ridx] @ self._gmap).reshape(-1, 3, 5)
         a, b, c = (polyval(G[:, k], t)[:, None] for k in range(3))
         Gv = a * ys**2 + b * ys + c
-        Gs = np.abs(a) * ys**2 + np.abs(b) * np.abs(ys) + np.abs(c) + 1e-300
+        # scale: the size of the terms of G (absolute coefficients), not its value at the root
+        at = np.abs(t)
+        Gs = sum(polyval(np.abs(G[:, k]), at)[:, None] * np.abs(ys) ** (2 - k) for k in range(3)) + 1e-300
         keep = (np.abs(Gv) <= _SCREEN * Gs) & (rho2 >= -1e-9)[:, None]
         kk = np.nonzero(keep)
         r0 = np.stack([np.zeros(len(kk[0])), ys[kk], z[kk[0]]], axis=-1)

@@ -89,11 +89,16 @@ class GeneralSolver(ReflectionSolver):
         y1, y2 = quad_roots(polyval(G[:, 0], t), polyval(G[:, 1], t), polyval(G[:, 2], t))
         ys = np.stack([y1, y1, y2, y2], axis=-1)
         xs = np.sqrt(np.maximum(rho2[:, None] - ys**2, 0.0)) * np.array([1.0, -1.0, 1.0, -1.0])
-        Ev = polyval(hh @ self._emap, t)[:, None]
+        Ec = hh @ self._emap
+        Ev = polyval(Ec, t)[:, None]
         F1v = (hh[:, 0] * polyval(self._f1, t))[:, None]
         F0v = (hh[:, 0] * polyval(self._f0, t))[:, None]
         res = np.abs(Ev * xs + F1v * ys + F0v)
-        sc = np.abs(Ev * xs) + np.abs(F1v * ys) + np.abs(F0v) + 1e-300
+        # scale: the size of the terms (absolute coefficients), not their values at the root
+        at = np.abs(t)
+        p1 = np.abs(hh[:, 0])
+        sc = (polyval(np.abs(Ec), at)[:, None] * np.abs(xs) + (p1 * polyval(np.abs(self._f1), at))[:, None]
+              * np.abs(ys) + (p1 * polyval(np.abs(self._f0), at))[:, None] + 1e-300)
         keep = (res <= np.maximum(_SCREEN * sc, 1e-12)) & (rho2[:, None] - ys**2 >= -1e-7) & np.isfinite(ys)
         kk = np.nonzero(keep)
         owners = [owner[kk[0]]]

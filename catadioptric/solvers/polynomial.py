@@ -141,15 +141,20 @@ def _de_casteljau_halves(b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def roots_in_unit_interval(
-    p: np.ndarray, *, max_depth: int = 48, newton_iters: int = 40
+    p: np.ndarray, *, cluster_width: float = 2.0**-20, newton_iters: int = 40
 ) -> tuple[np.ndarray, np.ndarray]:
     """All real roots in [-1, 1] of a batch of polynomials ``p`` of shape (M, n+1).
 
     Returns ``(index, t)``: flat arrays, ``index[i]`` the row of ``p`` whose root is
-    ``t[i]``. Roots are isolated exactly by Descartes' rule on Bernstein
-    coefficients (an interval whose coefficients change sign once holds exactly
-    one root); clusters narrower than ``2**-max_depth`` (multiple roots) give
-    their midpoint. Rows that vanish identically give no roots.
+    ``t[i]``. Roots are isolated by Descartes' rule on Bernstein coefficients (an
+    interval whose coefficients change sign once holds exactly one root), subdividing
+    with de Casteljau's algorithm. An interval narrower than ``cluster_width`` that
+    still shows two or more sign changes holds a cluster (a double root, two roots
+    closer than the width, or a complex pair next to the real axis, all of which
+    rounding can turn into one another): it gives the extremum of ``p`` there and the
+    real roots of the local quadratic model, when ``p`` is at rounding level near it.
+    Candidates are approximate in clusters; callers polish them on the full system.
+    Rows that vanish identically give no roots.
     """
     p = np.asarray(p, dtype=float)
     M, n1 = p.shape
@@ -165,17 +170,15 @@ def roots_in_unit_interval(
     b = b[live]
     lo = np.zeros(len(idx))
     width = 1.0
-    out_idx, out_lo, out_hi, out_exact = [], [], [], []
-    # exact roots at the interval's ends
-    for end, col in ((0.0, 0), (1.0, n)):
+    out_idx, out_lo, out_hi = [], [], []
+    clusters_idx, clusters_lo, clusters_w = [], [], []
+    for end, col in ((0.0, 0), (1.0, n)):  # exact roots at the ends
         z = b[:, col] == 0.0
         if np.any(z):
             out_idx.append(idx[z])
             out_lo.append(np.full(np.count_nonzero(z), end))
             out_hi.append(np.full(np.count_nonzero(z), end))
-    for depth in range(max_depth + 1):
-        if len(idx) == 0:
-            break
+    while len(idx):
         v = _sign_changes(b)
         one = v == 1
         if np.any(one):
@@ -183,20 +186,17 @@ def roots_in_unit_interval(
             out_lo.append(lo[one])
             out_hi.append(lo[one] + width)
         many = v >= 2
-        if depth == max_depth:
-            if np.any(many):
-                mid = lo[many] + 0.5 * width
-                out_idx.append(idx[many])
-                out_lo.append(mid)
-                out_hi.append(mid)
-            break
         if not np.any(many):
+            break
+        if width <= cluster_width:
+            clusters_idx.append(idx[many])
+            clusters_lo.append(lo[many])
+            clusters_w.append(np.full(np.count_nonzero(many), width))
             break
         idx, b, lo = idx[many], b[many], lo[many]
         left, right = _de_casteljau_halves(b)
         half = 0.5 * width
-        # a zero exactly at the split point is a root of its own
-        z = left[:, n] == 0.0
+        z = left[:, n] == 0.0  # a zero exactly at the split point is a root of its own
         if np.any(z):
             out_idx.append(idx[z])
             out_lo.append(lo[z] + half)
@@ -205,14 +205,43 @@ def roots_in_unit_interval(
         b = np.concatenate([left, right])
         lo = np.concatenate([lo, lo + half])
         width = half
-    if not out_idx:
-        return np.zeros(0, dtype=np.intp), np.zeros(0)
-    ridx = np.concatenate(out_idx)
-    a = np.concatenate(out_lo) * 2.0 - 1.0
-    c = np.concatenate(out_hi) * 2.0 - 1.0
-    t = _refine_bracketed(pn[ridx], a, c, newton_iters)
+    ridx = np.concatenate(out_idx) if out_idx else np.zeros(0, dtype=np.intp)
+    if len(ridx):
+        a = np.concatenate(out_lo) * 2.0 - 1.0
+        c = np.concatenate(out_hi) * 2.0 - 1.0
+        t = _refine_bracketed(pn[ridx], a, c, newton_iters)
+    else:
+        t = np.zeros(0)
+    if clusters_idx:
+        ci, ct = _cluster_candidates(pn, np.concatenate(clusters_idx), np.concatenate(clusters_lo) * 2.0 - 1.0,
+                                     np.concatenate(clusters_w) * 2.0)
+        ridx = np.concatenate([ridx, ci])
+        t = np.concatenate([t, ct])
     order = np.lexsort((t, ridx))
     return ridx[order], t[order]
+
+
+def _cluster_candidates(p, idx, a, w):
+    """Candidates in tiny intervals [a, a + w] holding a root cluster of the rows ``p[idx]``."""
+    q = p[idx]
+    dq = polyder(q)
+    ddq = polyder(dq)
+    # the extremum: a root of p' near the cluster (Newton from the middle, kept in a widened box)
+    t = a + 0.5 * w
+    for _ in range(8):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = polyval(dq, t) / polyval(ddq, t)
+        tn = t - np.where(np.isfinite(step), step, 0.0)
+        t = np.clip(tn, a - w, a + 2 * w)
+    f = polyval(q, t)
+    f2 = polyval(ddq, t)
+    small = np.abs(f) <= 1e-9  # rows are normalised to max |coefficient| = 1
+    with np.errstate(divide="ignore", invalid="ignore"):
+        delta = np.sqrt(np.maximum(-2.0 * f / f2, 0.0))
+    pair = np.isfinite(delta) & (delta > 0) & (delta <= 2 * w)
+    out_i = [idx[small], idx[pair], idx[pair]]
+    out_t = [t[small], (t - delta)[pair], (t + delta)[pair]]
+    return np.concatenate(out_i), np.concatenate(out_t)
 
 
 def _refine_bracketed(p: np.ndarray, a: np.ndarray, c: np.ndarray, iters: int, tol: float = 1e-14) -> np.ndarray:

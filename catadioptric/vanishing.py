@@ -1,0 +1,246 @@
+"""Vanishing points from directions, directions from vanishing points, vanishing curves.
+
+The vanishing point of a direction ``s`` is the image of the point at infinity
+of the lines ``q + lambda s`` as ``lambda -> +inf``: a reflection point whose
+reflected ray points along ``+s``. The same polynomial system holds the points of
+``-s`` (reflected ray along ``-s``): together they are the pair a family of
+parallel lines converges to. Solved by the reflection solvers with the target
+at infinity (``w = 0``); see docs/solvers.md.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._checks import CatadioptricError, as_float_array
+from .cameras import CatadioptricCamera
+from .projection import solve_targets
+
+__all__ = ["VanishingPoints", "VanishingCurve", "vanishing_points", "directions_from_vanishing_points",
+           "vanishing_curve", "paper_directions_from_mirror_points"]
+
+
+@dataclass
+class VanishingPoints:
+    """Vanishing points of each direction, NaN-padded along a fixed axis K.
+
+    ``uv (..., K, 2)``, ``mirror_points (..., K, 3)``; ``sign (..., K)`` is +1 for a
+    point of ``+s`` (reflected ray along ``+s``), -1 for a point of ``-s``, 0 for an
+    empty slot; ``visible (..., K)``: in the patch, reached by the camera ray without
+    the patch in the way, the reflected ray leaves without meeting the patch again,
+    in front of the camera; ``valid = visible & (sign > 0)``: the vanishing points of
+    ``s`` a user can observe. ``in_image`` also requires the pixel on the image.
+    Entries are ordered: valid first, then the other ``+s`` points, then ``-s``.
+    """
+
+    uv: np.ndarray
+    mirror_points: np.ndarray
+    valid: np.ndarray
+    sign: np.ndarray
+    visible: np.ndarray
+    in_image: np.ndarray
+
+    def opposite(self) -> "VanishingPoints":
+        """The points of ``-s`` as a result of their own (``valid`` = observable ``-s`` points)."""
+        return _select(self, self.sign < 0, -1)
+
+
+def _select(vp: VanishingPoints, mask, sign_value) -> VanishingPoints:
+    order = np.argsort(~(mask & vp.visible) + 2 * ~mask, axis=-1, kind="stable")
+    take = lambda a: np.take_along_axis(a, order[..., None] if a.ndim == order.ndim + 1 else order, axis=-1 if
+                                        a.ndim == order.ndim else -2)
+    m = take(mask)
+    uv = np.where(m[..., None], take(vp.uv), np.nan)
+    r = np.where(m[..., None], take(vp.mirror_points), np.nan)
+    vis = take(vp.visible) & m
+    return VanishingPoints(uv, r, vis, np.where(m, sign_value, 0), vis, take(vp.in_image) & m)
+
+
+def vanishing_points(cam: CatadioptricCamera, directions, *, which: str = "+s") -> VanishingPoints:
+    """Vanishing points of ``directions (..., 3)`` (any non-zero length) in the mirror frame.
+
+    ``which="+s"`` (default) returns the points of ``+s`` only (observable ones have
+    ``valid``; the others are reflection points in the patch that the camera cannot
+    see); ``which="both"`` also returns the points of ``-s`` (``sign == -1``).
+    """
+    if which not in ("+s", "both"):
+        raise CatadioptricError(f"which: expected '+s' or 'both', got {which!r}")
+    s = as_float_array(directions, "directions", 3)
+    shape = s.shape[:-1]
+    flat = s.reshape(-1, 3)
+    nrm = np.linalg.norm(flat, axis=-1)
+    if np.any(nrm == 0):
+        i = int(np.argmax(nrm == 0))
+        raise CatadioptricError(f"directions: expected non-zero vectors, got a zero vector at flat index {i}")
+    flat = flat / nrm[:, None]
+    sol, vis = solve_targets(cam, flat, 0.0, backward=(which == "both"))
+    sign = np.where(sol.found, np.where(sol.forward, 1, -1), 0)
+    valid = vis & (sign > 0)
+    order = np.argsort(~valid + 2 * (sign <= 0) + 4 * (sign == 0), axis=1, kind="stable")
+    r = np.take_along_axis(sol.points, order[..., None], axis=1)
+    sign = np.take_along_axis(sign, order, axis=1)
+    vis = np.take_along_axis(vis, order, axis=1)
+    valid = np.take_along_axis(valid, order, axis=1)
+    uv = cam.pixels_of_mirror_points(r)
+    uv = np.where((sign != 0)[..., None], uv, np.nan)
+    K = r.shape[1]
+    inimg = vis & cam.pinhole.in_image(uv)
+    rs = lambda a, tail=(): a.reshape(shape + (K,) + tail)
+    return VanishingPoints(rs(uv, (2,)), rs(r, (3,)), rs(valid), rs(sign), rs(vis), rs(inimg))
+
+
+def directions_from_vanishing_points(cam: CatadioptricCamera, uv) -> np.ndarray:
+    """Unit, oriented directions ``(..., 3)`` in M whose vanishing point is at pixel ``uv (..., 2)``.
+
+    The exact and unique answer is the reflected ray of the back-projected pixel: the
+    direction ``s`` such that lines along ``+s`` converge to ``uv``. NaN where the pixel
+    does not see the world through the mirror.
+    """
+    rays = cam.backproject(uv)
+    return np.where(rays.valid[..., None], rays.directions, np.nan)
+
+
+def paper_directions_from_mirror_points(cam: CatadioptricCamera, mirror_points) -> np.ndarray:
+    """The paper's Sec. 2.3 system (for comparison only): directions ``(..., 2, 3)``.
+
+    From a vanishing point's mirror point ``r`` the paper solves ``a1 s2 + a2 s3 = 0``,
+    ``b1 s1^2 + b2 s2^2 + b3 s2 s3 + b4 s3^2 = 0`` and ``|s| = 1``. The system is even in
+    ``s1`` and in ``(s2, s3)`` jointly, so it returns the two directions
+    ``(+-s1, s2, s3)`` (up to a common sign), only one of which has ``r`` as a
+    vanishing point, and no orientation. Use :func:`directions_from_vanishing_points`.
+    """
+    r = as_float_array(mirror_points, "mirror_points", 3)
+    m = cam.mirror
+    # frame with the camera at (0, c2, c3)
+    c = cam.center
+    rho = np.hypot(c[0], c[1])
+    cs, sn = (c[1] / rho, c[0] / rho) if rho > 0 else (1.0, 0.0)
+    R = np.array([[cs, -sn, 0], [sn, cs, 0], [0, 0, 1.0]])
+    rr = r @ R.T
+    c2, c3 = rho, c[2]
+    x, y, z = rr[..., 0], rr[..., 1], rr[..., 2]
+    A, B = m.A, m.B
+    n = np.stack([x, y, A * z + B / 2], -1)
+    dt = rr - np.array([0, c2, c3])
+    d = np.sum(n * n, -1)[..., None] * dt - 2 * n * np.sum(n * dt, -1)[..., None]
+    # kappa_9 = s3 d2 - s2 d3 = 0  ->  a1 s2 + a2 s3 = 0 with a1 = -d3, a2 = d2
+    a1, a2 = -d[..., 2], d[..., 1]
+    # coplanarity squared: (E x)^2 = F^2 with E = s2 e + s3 f, F = -s1 g
+    e = 2 * (1 - A) * (-1.0) * z + B + 2 * c3  # E = s2 (B + 2 c3 - 2 (1 - A) z) - 2 c2 s3
+    f = -2 * c2 * np.ones_like(z)
+    g = y * (2 * (A - 1) * z + B + 2 * c3) - c2 * (2 * A * z + B)
+    # b1 s1^2 + b2 s2^2 + b3 s2 s3 + b4 s3^2 = 0 with b1 = -g^2, b2 = e^2 x^2, b3 = 2 e f x^2, b4 = f^2 x^2
+    b1, b2, b3, b4 = -g * g, e * e * x * x, 2 * e * f * x * x, f * f * x * x
+    with np.errstate(divide="ignore", invalid="ignore"):
+        k = -a1 / a2  # s3 = k s2
+        s2sq = -b1 / (b2 + b3 * k + b4 * k * k - b1 - b1 * k * k)
+        s2 = np.sqrt(s2sq)
+        s3 = k * s2
+        s1 = np.sqrt(np.maximum(1 - s2 * s2 - s3 * s3, 0.0))
+    out = np.stack([np.stack([s1, s2, s3], -1), np.stack([-s1, s2, s3], -1)], axis=-2)
+    return out @ R  # back to M (row vectors: R^T s)
+
+
+@dataclass
+class VanishingCurve:
+    """One connected piece of a vanishing curve: ``uv (M, 2)``, ``mirror_points (M, 3)``,
+    ``directions (M, 3)`` (the unit direction each vertex is the vanishing point of), and
+    ``closed`` when the piece is a loop (its last vertex connects to the first)."""
+
+    uv: np.ndarray
+    mirror_points: np.ndarray
+    directions: np.ndarray
+    closed: bool
+
+
+def vanishing_curve(cam: CatadioptricCamera, normal, *, max_step_px: float = 1.0, n_start: int = 720,
+                    max_rounds: int = 40) -> list[VanishingCurve]:
+    """The vanishing curve of the plane with ``normal`` (in M): the observable vanishing
+    points of every direction perpendicular to it, as polylines whose consecutive
+    vertices are at most ``max_step_px`` apart in the image.
+
+    Directions are swept by angle, ``s(theta) = cos(theta) e1 + sin(theta) e2`` with
+    ``(e1, e2)`` an orthonormal basis of the plane (an angle, not the paper's
+    ``alpha s1 + (1 - alpha) s2``, which misses ``s1 - s2``); every vertex is an exact
+    vanishing point. The sweep is refined where neighbours are too far apart and
+    where the curve leaves the observable region, down to the ends.
+    """
+    m = as_float_array(normal, "normal", 3)
+    if m.shape != (3,) or np.linalg.norm(m) == 0:
+        raise CatadioptricError(f"normal: expected a non-zero 3-vector, got {m.tolist()}")
+    m = m / np.linalg.norm(m)
+    a = np.array([1.0, 0, 0]) if abs(m[0]) < 0.9 else np.array([0, 1.0, 0])
+    e1 = np.cross(m, a)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(m, e1)
+    dirs = lambda th: np.cos(th)[:, None] * e1 + np.sin(th)[:, None] * e2
+
+    theta = np.linspace(0.0, 2 * np.pi, n_start, endpoint=False)
+    vp = vanishing_points(cam, dirs(theta))
+    pts = {"theta": theta, "uv": vp.uv, "r": vp.mirror_points, "valid": vp.valid}
+    eps_theta = 1e-13
+    for _ in range(max_rounds):
+        th, uv, valid = pts["theta"], pts["uv"], pts["valid"]
+        nxt = np.r_[th[1:], th[0] + 2 * np.pi]
+        uvn = np.roll(uv, -1, axis=0)
+        vn = np.roll(valid, -1, axis=0)
+        # pairwise distances between the slots of neighbouring samples
+        dist = np.linalg.norm(uv[:, :, None, :] - uvn[:, None, :, :], axis=-1)
+        dist = np.where(valid[:, :, None] & vn[:, None, :], dist, np.inf)
+        near_next = np.min(dist, axis=2)  # each valid point's nearest valid point at the next sample
+        near_prev = np.min(dist, axis=1)
+        gap = nxt - th
+        need = np.any(valid & (near_next > max_step_px), axis=1) | np.any(vn & (near_prev > max_step_px), axis=1)
+        need &= gap > eps_theta
+        if not np.any(need):
+            break
+        mid = 0.5 * (th[need] + nxt[need])
+        v2 = vanishing_points(cam, dirs(mid))
+        allth = np.r_[th, mid]
+        order = np.argsort(allth, kind="stable")
+        pts = {"theta": allth[order], "uv": np.concatenate([uv, v2.uv])[order],
+               "r": np.concatenate([pts["r"], v2.mirror_points])[order],
+               "valid": np.concatenate([valid, v2.valid])[order]}
+    return _chain(pts, dirs, max_step_px)
+
+
+def _chain(pts, dirs, max_step_px) -> list[VanishingCurve]:
+    """Link each valid vertex to its nearest valid vertex at the next angle (within the step)."""
+    th, uv, r, valid = pts["theta"], pts["uv"], pts["r"], pts["valid"]
+    n, K = valid.shape
+    nodes = {(i, k) for i in range(n) for k in range(K) if valid[i, k]}
+    succ, pred = {}, {}
+    for i in range(n):
+        j = (i + 1) % n
+        for k in range(K):
+            if not valid[i, k]:
+                continue
+            d = np.where(valid[j], np.linalg.norm(uv[j] - uv[i, k], axis=-1), np.inf)
+            kk = int(np.argmin(d))
+            if d[kk] <= 2 * max_step_px and (j, kk) not in pred:
+                succ[(i, k)] = (j, kk)
+                pred[(j, kk)] = (i, k)
+    curves = []
+    seen = set()
+    starts = [nd for nd in sorted(nodes) if nd not in pred] + sorted(nodes)
+    for st in starts:
+        if st in seen:
+            continue
+        chain = [st]
+        seen.add(st)
+        cur = st
+        closed = False
+        while cur in succ:
+            cur = succ[cur]
+            if cur == st:
+                closed = True
+                break
+            if cur in seen:
+                break
+            chain.append(cur)
+            seen.add(cur)
+        ii = np.array([c[0] for c in chain])
+        kk = np.array([c[1] for c in chain])
+        curves.append(VanishingCurve(uv[ii, kk], r[ii, kk], dirs(th[ii]), closed))
+    return curves
