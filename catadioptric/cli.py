@@ -9,6 +9,7 @@ import sys
 # modules that define ``register(subparsers)``; each adds its subcommand(s)
 SUBCOMMAND_MODULES = [
     "catadioptric.demo",
+    "catadioptric.centrality",
 ]
 
 
