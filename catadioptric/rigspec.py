@@ -239,6 +239,18 @@ class SpecTable:
             self._fail(key, what, v)
         return self._store(key, [float(x) for x in v])
 
+    def integers(self, key: str, default=REQUIRED, *, length: int, min=None) -> list[int] | None:
+        """A list of ``length`` integers (each ``>= min`` when given)."""
+        what = f"a list of {length} integers" + (f" >= {min}" if min is not None else "")
+        v, given = self._fetch(key, default, what)
+        if v is None:
+            return None
+        ok = isinstance(v, (list, tuple)) and len(v) == length
+        ok = ok and all(isinstance(x, int) and not isinstance(x, bool) and (min is None or x >= min) for x in v)
+        if not ok:
+            self._fail(key, what, v)
+        return self._store(key, [int(x) for x in v])
+
     def vector(self, key: str, default=REQUIRED, n: int = 3) -> list[float] | None:
         """``n`` real numbers (a point or a direction)."""
         return self.numbers(key, default, length=n, what=f"a list of {n} numbers")
@@ -319,6 +331,14 @@ class SpecTable:
         subs = [SpecTable(item, f"{self.key_path(key)}[{i}]") for i, item in enumerate(v)]
         self._out[key] = subs
         return subs
+
+    def nested(self, key: str, reader, default=None):
+        """Read the sub-table ``key`` with ``reader(value, path) -> normalised dict`` (another
+        spec's reader, e.g. :func:`read_rig_spec` for a rig inlined in a scene spec)."""
+        v, given = self._fetch(key, default, "a table")
+        if v is None:
+            return None
+        return self._store(key, reader(v, self.key_path(key)))
 
     def ignore(self, key: str) -> None:
         """Accept ``key`` without reading it (it is kept unchanged in the normalised table)."""
