@@ -138,6 +138,8 @@ def solve_targets(cam: CatadioptricCamera, targets: np.ndarray, w: float, backwa
              for i in range(0, max(len(targets), 1), CHUNK)]
     sol = parts[0] if len(parts) == 1 else type(parts[0])(*(np.concatenate([getattr(p, f) for p in parts])
                                                             for f in ("points", "forward", "found")))
+    sol.found &= cam.mirror.in_patch(sol.points)  # the exact patch, whatever the solver's rounding
+    sol.points[~sol.found] = np.nan
     r = sol.points
     tg = np.broadcast_to(targets[:, None, :], r.shape)
     ww = np.full(r.shape[:-1], float(w))

@@ -179,7 +179,7 @@ def vanishing_curve(cam: CatadioptricCamera, normal, *, max_step_px: float = 1.0
     theta = np.linspace(0.0, 2 * np.pi, n_start, endpoint=False)
     vp = vanishing_points(cam, dirs(theta))
     pts = {"theta": theta, "uv": vp.uv, "r": vp.mirror_points, "valid": vp.valid}
-    eps_theta = 1e-13
+    eps_theta = 1e-9  # ends of open pieces are located to 1e-9 rad of direction
     for _ in range(max_rounds):
         th, uv, valid = pts["theta"], pts["uv"], pts["valid"]
         nxt = np.r_[th[1:], th[0] + 2 * np.pi]
@@ -242,5 +242,8 @@ def _chain(pts, dirs, max_step_px) -> list[VanishingCurve]:
             seen.add(cur)
         ii = np.array([c[0] for c in chain])
         kk = np.array([c[1] for c in chain])
+        if len(ii) > 1:  # drop vertices repeated within rounding (the refinement can stack them)
+            keep = np.r_[True, np.linalg.norm(np.diff(uv[ii, kk], axis=0), axis=1) > 1e-9]
+            ii, kk = ii[keep], kk[keep]
         curves.append(VanishingCurve(uv[ii, kk], r[ii, kk], dirs(th[ii]), closed))
     return curves
