@@ -360,8 +360,7 @@ class CentralityReport:
         fig, axes = plt.subplots(1, 2, figsize=(11.0, 4.4), dpi=90, constrained_layout=True)
         ext = (-0.5, W - 0.5, H - 0.5, -0.5)
         for ax, a in zip(axes, (self.central, self.omnidir)):
-            cmap = plt.get_cmap("viridis").copy()
-            cmap.set_bad("0.85")
+            cmap = plt.get_cmap("viridis").with_extremes(bad="0.85")
             im = ax.imshow(a.error_map_deg, cmap=cmap, extent=ext, interpolation="nearest")
             fig.colorbar(im, ax=ax, shrink=0.85, label="angular error (deg)")
             sel = self.exact_vp_valid & a.vp_valid
