@@ -7,7 +7,8 @@ it that also forms a white ``border`` around the squares, and labelled grid
 lines: the N + 1 lines along its ``v`` axis and the M + 1 lines along its ``u``
 axis (``lines = "inner"`` keeps the N - 1 and M - 1 inner ones). The grid lines
 are drawn on the squares (their tubes are lifted to clear the face by
-``lines.clearance``) and stop ``lines.clearance`` short of the checker's edge.
+``lines.clearance``) and stop ``lines.clearance`` short of the checker's edge;
+their host (``Scene.segment_host``) is the board's frame.
 Boards with the same orientation share their two families.
 
 The layout is fully given by the spec: the seed does not change the scene.
@@ -41,7 +42,7 @@ def _board(B: SceneBuilder, spec: dict, board: dict) -> None:
     gap = min(0.001, thick / 10)
     hw, hh = nx * s / 2 + border, ny * s / 2 + border
     vb, fb = oriented_box(to_world([-hw, -hh, -thick]), R, [2 * hw, 2 * hh, thick - gap])
-    B.add_mesh(f"{name}:frame", vb, fb, c["light_color"], "chessboard")
+    frame = B.add_mesh(f"{name}:frame", vb, fb, c["light_color"], "chessboard")
 
     xs = (np.arange(nx + 1) - nx / 2) * s
     ys = (np.arange(ny + 1) - ny / 2) * s
@@ -53,10 +54,10 @@ def _board(B: SceneBuilder, spec: dict, board: dict) -> None:
     corners = np.concatenate([corners, np.zeros(corners.shape[:-1] + (1,))], axis=-1)
     dark = (ii + jj) % 2 == 0
     vd, fd = quads(to_world(corners[dark]))
-    host = B.add_mesh(f"{name}:dark", vd, fd, c["dark_color"], "chessboard")
+    B.add_mesh(f"{name}:dark", vd, fd, c["dark_color"], "chessboard")
     if np.any(~dark):  # (a 1 x 1 board has no light square)
         vl, fl = quads(to_world(corners[~dark]))
-        host = B.add_mesh(f"{name}:light", vl, fl, c["light_color"], "chessboard")
+        B.add_mesh(f"{name}:light", vl, fl, c["light_color"], "chessboard")
 
     if c["lines"] == "none":
         return
@@ -67,11 +68,11 @@ def _board(B: SceneBuilder, spec: dict, board: dict) -> None:
     for i in rng_x:  # lines along v
         start = to_world([xs[i], ys[0] + eps, 0.0])
         B.add_segment(f"{name}:v{i}", start, v, ny * s - 2 * eps, radius=ln["radius"], color=color, normal=n,
-                      on_surface=True, flatten=ln["flatten"], host=host)
+                      on_surface=True, flatten=ln["flatten"], host=frame)
     for j in rng_y:  # lines along u
         start = to_world([xs[0] + eps, ys[j], 0.0])
         B.add_segment(f"{name}:u{j}", start, u, nx * s - 2 * eps, radius=ln["radius"], color=color, normal=n,
-                      on_surface=True, flatten=ln["flatten"], host=host)
+                      on_surface=True, flatten=ln["flatten"], host=frame)
 
 
 def build_chessboard(spec: dict, seed: int) -> Scene:

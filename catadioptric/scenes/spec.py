@@ -145,6 +145,11 @@ def _check_street(spec: dict) -> None:
             raise CatadioptricError(
                 f"scene.buildings.yaw_weights: expected {len(b['yaw_deg'])} weights >= 0 (one per yaw_deg) "
                 f"with a positive sum, got {b['yaw_weights']!r}")
+    r = spec["lines"]["radius"]
+    if w["facades"] != "none" and w["lines"] and not r < min(w["width"], w["height"]) / 4:
+        raise CatadioptricError(
+            f"scene.lines.radius: expected less than a quarter of the window size min(width, height) / 4 = "
+            f"{min(w['width'], w['height']) / 4!r} (the window's edge tubes would merge), got {r!r}")
     half = st["road_width"] / 2
     if not m["edge_offset"] + m["width"] / 2 < half:
         raise CatadioptricError(
@@ -267,6 +272,8 @@ def read_scene_spec(data, path: str = "scene") -> dict:
                 raise CatadioptricError(f"scene.views[{i}].{exc}") from None
     spec.setdefault("views", [])
     (_check_street if street else _check_chessboard)(spec)
+    if isinstance(spec.get("rig"), str):
+        _rig_of(spec)  # the name or file must resolve
     return spec
 
 
@@ -320,9 +327,12 @@ def views(spec_or_path) -> list[tuple[str, RigPose]]:
 def scene_rig(spec_or_path, *, width: int | None = None, height: int | None = None):
     """The :class:`~catadioptric.CatadioptricCamera` the spec's ``rig`` names (a rig name, a rig spec
     file relative to the scene spec's folder, or an inline rig table)."""
+    return _rig_of(as_spec(spec_or_path), width, height)
+
+
+def _rig_of(spec: dict, width=None, height=None):
     from ..rigspec import load_rig, rig_from_spec
 
-    spec = as_spec(spec_or_path)
     rig = spec.get("rig")
     if rig is None:
         raise CatadioptricError("scene.rig: missing; this scene spec names no rig")
