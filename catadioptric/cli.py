@@ -10,6 +10,7 @@ import sys
 SUBCOMMAND_MODULES = [
     "catadioptric.demo",
     "catadioptric.centrality",
+    "catadioptric.render.cli",
 ]
 
 
