@@ -237,18 +237,27 @@ def test_street_content(urban):
 
 
 def test_markings_lie_on_the_road(urban):
-    names = {o.label: o.name for o in urban.objects}
+    """Painted lines: flat tubes exactly ``width`` wide and ``thickness`` thick, resting on the road."""
+    by_label = {o.label: o for o in urban.objects}
     m = urban.spec["markings"]
     half = urban.spec["street"]["road_width"] / 2
+    count = 0
     for seg, lab in zip(urban.segments, urban.segment_label):
-        n = names[int(lab)]
-        if n.startswith(("zebra", "lane", "stop", "edge")):
-            width = m["stop_line_width"] if n.startswith("stop") else (
-                m["zebra_stripe_width"] if n.startswith("zebra") else m["width"])
-            # a flat tube: half its thickness above the road, plus the clearance
-            np.testing.assert_allclose(seg[:, 2], min(m["thickness"], width) / 2 + urban.spec["lines"]["clearance"],
-                                       atol=1e-12)
-            assert np.all(np.abs(seg[:, 1]) <= half)
+        tube = by_label[int(lab)]
+        if not tube.name.startswith(("zebra", "lane", "stop", "edge")):
+            continue
+        count += 1
+        width = m["stop_line_width"] if tube.name.startswith("stop") else (
+            m["zebra_stripe_width"] if tube.name.startswith("zebra") else m["width"])
+        z = tube.vertices[:, 2]
+        np.testing.assert_allclose([z.min(), z.max()], [urban.spec["lines"]["clearance"],
+                                                        urban.spec["lines"]["clearance"] + m["thickness"]], atol=1e-12)
+        d = (seg[1] - seg[0]) / np.linalg.norm(seg[1] - seg[0])
+        side = np.cross([0.0, 0.0, 1.0], d)
+        w = (tube.vertices - seg[0]) @ side
+        np.testing.assert_allclose([w.min(), w.max()], [-width / 2, width / 2], atol=1e-12)
+        assert np.all(np.abs(seg[:, 1]) <= half)
+    assert count > 30
 
 
 def test_scene_validate_catches_broken_scenes(tiny):

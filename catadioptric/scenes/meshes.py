@@ -18,6 +18,7 @@ __all__ = [
     "tubes",
     "tube_faces",
     "tube_depth",
+    "tube_half_width",
     "merge",
     "frame_from_normal",
 ]
@@ -137,6 +138,12 @@ def tube_depth(sides: int) -> float:
     """How far (in radii) the polygonal cross-section reaches along ``-e1``: the tube of
     radius r flattened by ``flatten`` reaches ``r * flatten * tube_depth(sides)`` below its axis."""
     return float(np.max(-np.cos(_angles(sides))))
+
+
+def tube_half_width(sides: int) -> float:
+    """How far (in radii) the cross-section reaches along ``+-e2``, across the normal: a tube of
+    ``sides`` sides is ``2 r tube_half_width(sides)`` wide (1 when ``sides`` is a multiple of 4)."""
+    return float(np.max(np.sin(_angles(sides))))
 
 
 def tube_faces(sides: int) -> np.ndarray:

@@ -85,8 +85,9 @@ class Scene:
         kinds: dict[str, int] = {}
         for o in self.objects:
             kinds[o.kind] = kinds.get(o.kind, 0) + 1
-        lo = np.min([o.vertices.min(axis=0) for o in self.objects if len(o.vertices)], axis=0)
-        hi = np.max([o.vertices.max(axis=0) for o in self.objects if len(o.vertices)], axis=0)
+        boxes = [(o.vertices.min(axis=0), o.vertices.max(axis=0)) for o in self.objects if len(o.vertices)]
+        lo = np.min([b[0] for b in boxes], axis=0) if boxes else np.full(3, np.nan)
+        hi = np.max([b[1] for b in boxes], axis=0) if boxes else np.full(3, np.nan)
         return {
             "name": self.name,
             "seed": int(self.seed),

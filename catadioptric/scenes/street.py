@@ -29,7 +29,7 @@ import numpy as np
 
 from .._checks import CatadioptricError
 from .builder import SceneBuilder
-from .meshes import extrude_polygon, extrude_profile, merge, oriented_box, quads
+from .meshes import extrude_polygon, extrude_profile, merge, oriented_box, quads, tube_depth, tube_half_width
 from .scene import Scene
 from .spec import sun_direction
 
@@ -288,13 +288,17 @@ class _Street:
         hr = st["road_width"] / 2
         color = tuple(m["color"])
         t = m["thickness"]
+        across, below = tube_half_width(B.sides), tube_depth(B.sides)
 
         def paint(name, a, b, width):
+            """A flat tube exactly ``width`` wide and ``thickness`` thick lying on the road."""
             a, b = np.asarray(a, float), np.asarray(b, float)
             d = b - a
             length = float(np.linalg.norm(d))
-            B.add_segment(name, a, d / length, length, radius=width / 2, color=color, normal=_Z, on_surface=True,
-                          flatten=min(1.0, t / width), host=ground)
+            radius = width / (2 * across)
+            flatten = min(1.0, t / (radius * (1 + below)))
+            B.add_segment(name, a, d / length, length, radius=radius, color=color, normal=_Z, on_surface=True,
+                          flatten=flatten, host=ground)
 
         lane_ys = [-hr + k * st["road_width"] / st["lanes"] for k in range(1, st["lanes"])]
         for j, (x0, x1) in enumerate(blocks):
