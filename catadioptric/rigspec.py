@@ -340,12 +340,6 @@ class SpecTable:
             return None
         return self._store(key, reader(v, self.key_path(key)))
 
-    def ignore(self, key: str) -> None:
-        """Accept ``key`` without reading it (it is kept unchanged in the normalised table)."""
-        self._fetch(key, None, "")
-        if key in self._data:
-            self._out[key] = self._data[key]
-
     def done(self) -> dict:
         """Refuse unknown keys; return the normalised table (sub-tables resolved)."""
         unknown = [k for k in self._data if k not in self._known]
