@@ -131,37 +131,58 @@ def visibility(cam: CatadioptricCamera, r: np.ndarray, target: np.ndarray, w: np
 CHUNK = 1 << 16  # targets per batch: large enough to amortise numpy, small enough to stay in cache
 
 
-def solve_targets(cam: CatadioptricCamera, targets: np.ndarray, w: float, backward: bool = False):
-    """Reflection points of flat targets ``(N, 3)``: points, forward flags, found mask, visibility."""
+@dataclass
+class FlatSolutions:
+    """Reflection points as flat arrays: ``owner`` (target index), ``points (M, 3)``,
+    ``forward``, ``visible`` (see :func:`visibility`), ``uv (M, 2)``."""
+
+    owner: np.ndarray
+    points: np.ndarray
+    forward: np.ndarray
+    visible: np.ndarray
+    uv: np.ndarray
+
+    def scatter(self, N: int, K: int, keep: np.ndarray, key: np.ndarray):
+        """(N, K) arrays of the kept entries, ordered by ``key`` within each target, NaN-padded."""
+        from .solvers.reflection import rank_within
+
+        o, k = self.owner[keep], key[keep]
+        order, slot = rank_within(o, k)
+        ok = slot < K
+        o, sl, sel = o[order][ok], slot[ok], np.nonzero(keep)[0][order][ok]
+        r = np.full((N, K, 3), np.nan)
+        uv = np.full((N, K, 2), np.nan)
+        r[o, sl] = self.points[sel]
+        uv[o, sl] = self.uv[sel]
+        return o, sl, sel, r, uv
+
+
+def solve_targets(cam: CatadioptricCamera, targets: np.ndarray, w: float, backward: bool = False) -> FlatSolutions:
+    """Every reflection point in the patch of flat targets ``(N, 3)`` (w = 1 points, 0 directions)."""
     solver = cam.solver
-    parts = [solver.solve(targets[i:i + CHUNK], float(w), backward=backward)
+    parts = [solver.solve_flat(targets[i:i + CHUNK], float(w), backward=backward)
              for i in range(0, max(len(targets), 1), CHUNK)]
-    sol = parts[0] if len(parts) == 1 else type(parts[0])(*(np.concatenate([getattr(p, f) for p in parts])
-                                                            for f in ("points", "forward", "found")))
-    sol.found &= cam.mirror.in_patch(sol.points)  # the exact patch, whatever the solver's rounding
-    sol.points[~sol.found] = np.nan
-    r = sol.points
-    tg = np.broadcast_to(targets[:, None, :], r.shape)
-    ww = np.full(r.shape[:-1], float(w))
-    with np.errstate(invalid="ignore"):
-        vis = visibility(cam, np.nan_to_num(r), tg, ww) & sol.found
-    return sol, vis
+    owner = np.concatenate([p[0] + i * CHUNK for i, p in enumerate(parts)])
+    r = np.concatenate([p[1] for p in parts])
+    fwd = np.concatenate([p[2] for p in parts])
+    inside = cam.mirror.in_patch(r)  # the exact patch, whatever the solver's rounding
+    owner, r, fwd = owner[inside], r[inside], fwd[inside]
+    vis = visibility(cam, r, targets[owner], np.full(len(owner), float(w)))
+    uv = cam.pixels_of_mirror_points(r)
+    return FlatSolutions(owner, r, fwd, vis, uv)
 
 
 def project(cam: CatadioptricCamera, points) -> Projections:
     pts = as_float_array(points, "points", 3)
     shape = pts.shape[:-1]
     flat = pts.reshape(-1, 3)
-    sol, vis = solve_targets(cam, flat, 1.0)
-    keep = sol.found & sol.forward
-    valid = keep & vis
-    r = np.where(keep[..., None], sol.points, np.nan)
-    # valid first, then the other reflection points; stable within each group
-    order = np.argsort(~valid + 2 * ~keep, axis=1, kind="stable")
-    r = np.take_along_axis(r, order[..., None], axis=1)
-    valid = np.take_along_axis(valid, order, axis=1)
-    uv = cam.pixels_of_mirror_points(r)
-    K = r.shape[1]
+    N, K = len(flat), cam.solver.max_solutions
+    fs = solve_targets(cam, flat, 1.0)
+    valid_flat = fs.forward & fs.visible
+    # valid first, then the other reflection points (occluded, behind the camera)
+    o, sl, sel, r, uv = fs.scatter(N, K, fs.forward, (~valid_flat).astype(np.int8))
+    valid = np.zeros((N, K), dtype=bool)
+    valid[o, sl] = valid_flat[sel]
     in_img = valid & cam.pinhole.in_image(uv)
     return Projections(uv.reshape(shape + (K, 2)), r.reshape(shape + (K, 3)), valid.reshape(shape + (K,)),
                        in_img.reshape(shape + (K,)))

@@ -74,17 +74,17 @@ def vanishing_points(cam: CatadioptricCamera, directions, *, which: str = "+s") 
         i = int(np.argmax(nrm == 0))
         raise CatadioptricError(f"directions: expected non-zero vectors, got a zero vector at flat index {i}")
     flat = flat / nrm[:, None]
-    sol, vis = solve_targets(cam, flat, 0.0, backward=(which == "both"))
-    sign = np.where(sol.found, np.where(sol.forward, 1, -1), 0)
+    fs = solve_targets(cam, flat, 0.0, backward=(which == "both"))
+    N, K = len(flat), cam.solver.max_solutions
+    sign_flat = np.where(fs.forward, 1, -1).astype(np.int8)
+    valid_flat = fs.visible & fs.forward
+    key = np.where(valid_flat, 0, np.where(fs.forward, 1, 2)).astype(np.int8)
+    o, sl, sel, r, uv = fs.scatter(N, K, np.ones(len(fs.owner), dtype=bool), key)
+    sign = np.zeros((N, K), dtype=np.int8)
+    vis = np.zeros((N, K), dtype=bool)
+    sign[o, sl] = sign_flat[sel]
+    vis[o, sl] = fs.visible[sel]
     valid = vis & (sign > 0)
-    order = np.argsort(~valid + 2 * (sign <= 0) + 4 * (sign == 0), axis=1, kind="stable")
-    r = np.take_along_axis(sol.points, order[..., None], axis=1)
-    sign = np.take_along_axis(sign, order, axis=1)
-    vis = np.take_along_axis(vis, order, axis=1)
-    valid = np.take_along_axis(valid, order, axis=1)
-    uv = cam.pixels_of_mirror_points(r)
-    uv = np.where((sign != 0)[..., None], uv, np.nan)
-    K = r.shape[1]
     inimg = vis & cam.pinhole.in_image(uv)
     rs = lambda a, tail=(): a.reshape(shape + (K,) + tail)
     return VanishingPoints(rs(uv, (2,)), rs(r, (3,)), rs(valid), rs(sign), rs(vis), rs(inimg))

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .reflection import ReflectionSolver, gather, ACCEPT, reflect
+from .reflection import ACCEPT, ReflectionSolver, dedupe, gather, reflect
 
 
 class CentralSolver(ReflectionSolver):
@@ -27,6 +27,10 @@ class CentralSolver(ReflectionSolver):
         self._c_frame = self.c
 
     def solve(self, targets, w, *, backward=False):
+        owner, r, fwd = self.solve_flat(targets, w, backward=backward)
+        return gather(len(targets), owner, r, fwd, self.degree)
+
+    def solve_flat(self, targets, w, *, backward=False):
         targets = np.asarray(targets, dtype=float)
         N = len(targets)
         w = np.broadcast_to(np.asarray(w, float), (N,))
@@ -54,4 +58,4 @@ class CentralSolver(ReflectionSolver):
         tgt /= np.linalg.norm(tgt, axis=-1, keepdims=True)
         fwd = np.sum(d * tgt, axis=-1) > 0
         good = (np.linalg.norm(np.cross(d, tgt), axis=-1) <= ACCEPT) & (fwd | backward)
-        return gather(N, owner[good], r[good] * self.L, fwd[good], self.degree)
+        return dedupe(owner[good], r[good] * self.L, fwd[good])

@@ -60,6 +60,8 @@ class GeneralSolver(ReflectionSolver):
             return deflate_linear(deflate_linear(R, E), E)
 
         self._exps, self._qmap = fit_homogeneous_map(octic, 4, 4)
+        at_infinity = self._exps[:, 3] == 0  # monomials free of w: all that directions need
+        self._exps_dir, self._qmap_dir = self._exps[at_infinity], self._qmap[at_infinity]
         basis = np.eye(4)
         Gb = reflection_G(*a, basis)
         self._gmap = np.stack([bv.y_coefficient(Gb, k, 5) for k in (2, 1, 0)], axis=1).reshape(4, 15)
@@ -79,7 +81,10 @@ class GeneralSolver(ReflectionSolver):
         e1 = (np.abs(h[:, 1]) <= 1e-12) & (np.abs(h[:, 2]) <= 1e-12) & (h[:, 3] == 0)
         gen = np.nonzero(~e1)[0]
         hg = h[gen]
-        Q = monomials(hg, self._exps) @ self._qmap
+        if np.all(hg[:, 3] == 0):
+            Q = monomials(hg, self._exps_dir) @ self._qmap_dir
+        else:
+            Q = monomials(hg, self._exps) @ self._qmap
         ridx, t = roots_in_unit_interval(Q)
         owner = gen[ridx]
         hh = h[owner]

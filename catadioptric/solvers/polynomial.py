@@ -70,6 +70,18 @@ def polyval(p: np.ndarray, t: np.ndarray) -> np.ndarray:
     return out
 
 
+def polyval_der(p: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``p(t)`` and ``p'(t)`` in one Horner pass (rows of ``p`` against entries of ``t``)."""
+    f = p[..., -1].copy()
+    df = np.zeros_like(f)
+    for k in range(p.shape[-1] - 2, -1, -1):
+        df *= t
+        df += f
+        f *= t
+        f += p[..., k]
+    return f, df
+
+
 def polyder(p: np.ndarray) -> np.ndarray:
     n = p.shape[-1]
     if n == 1:
@@ -145,8 +157,8 @@ def roots_in_unit_interval(
 ) -> tuple[np.ndarray, np.ndarray]:
     """All real roots in [-1, 1] of a batch of polynomials ``p`` of shape (M, n+1).
 
-    Returns ``(index, t)``: flat arrays, ``index[i]`` the row of ``p`` whose root is
-    ``t[i]``. Roots are isolated by Descartes' rule on Bernstein coefficients (an
+    Returns ``(index, t)``: flat arrays (in no particular order), ``index[i]`` the row
+    of ``p`` whose root is ``t[i]``. Roots are isolated by Descartes' rule on Bernstein coefficients (an
     interval whose coefficients change sign once holds exactly one root), subdividing
     with de Casteljau's algorithm. An interval narrower than ``cluster_width`` that
     still shows two or more sign changes holds a cluster (a double root, two roots
@@ -163,11 +175,15 @@ def roots_in_unit_interval(
         return np.zeros(0, dtype=np.intp), np.zeros(0)
     scale = np.max(np.abs(p), axis=1)
     live = scale > 0
-    pn = np.zeros_like(p)
-    pn[live] = p[live] / scale[live, None]
-    b = pn @ _bernstein_matrix(n)
-    idx = np.nonzero(live)[0]
-    b = b[live]
+    if np.all(live):
+        pn = p / scale[:, None]
+        b = pn @ _bernstein_matrix(n)
+        idx = np.arange(M)
+    else:
+        pn = np.zeros_like(p)
+        pn[live] = p[live] / scale[live, None]
+        b = pn[live] @ _bernstein_matrix(n)
+        idx = np.nonzero(live)[0]
     lo = np.zeros(len(idx))
     width = 1.0
     out_idx, out_lo, out_hi = [], [], []
@@ -217,8 +233,7 @@ def roots_in_unit_interval(
                                      np.concatenate(clusters_w) * 2.0)
         ridx = np.concatenate([ridx, ci])
         t = np.concatenate([t, ct])
-    order = np.lexsort((t, ridx))
-    return ridx[order], t[order]
+    return ridx, t
 
 
 def _cluster_candidates(p, idx, a, w):
@@ -244,35 +259,41 @@ def _cluster_candidates(p, idx, a, w):
     return np.concatenate(out_i), np.concatenate(out_t)
 
 
-def _refine_bracketed(p: np.ndarray, a: np.ndarray, c: np.ndarray, iters: int, tol: float = 1e-14) -> np.ndarray:
+def _refine_bracketed(p: np.ndarray, a: np.ndarray, c: np.ndarray, iters: int, tol: float = 1e-11) -> np.ndarray:
     """Safeguarded Newton on brackets [a, c] holding one sign change (or a == c).
 
     Starts from the secant point of the bracket, falls back to bisection when a
-    Newton step leaves the bracket, and works on the still-active brackets only.
-    Stops at steps below ``tol`` (the callers polish further on the full system)."""
-    dp = polyder(p)
+    Newton step leaves the bracket, and stops at steps below ``tol`` (the callers
+    polish further on the full system). The working set is compacted whenever it
+    has shrunk by half, so the cost follows the slow roots, not the batch."""
     fa = polyval(p, a)
     fc = polyval(p, c)
     with np.errstate(divide="ignore", invalid="ignore"):
         t = a - fa * (c - a) / (fc - fa)
     t = np.where(np.isfinite(t) & (t >= a) & (t <= c), t, 0.5 * (a + c))
     sa = np.sign(fa)
-    act = np.nonzero(a < c)[0]
+    out = t.copy()
+    idx = np.nonzero(a < c)[0]
+    pw, tw, aw, cw, sw = p[idx], t[idx], a[idx], c[idx], sa[idx]
+    live = np.ones(len(idx), dtype=bool)
     for _ in range(iters):
-        if len(act) == 0:
+        if not np.any(live):
             break
-        pa, dpa, ta, aa, ca, sa_ = p[act], dp[act], t[act], a[act], c[act], sa[act]
-        f = polyval(pa, ta)
-        df = polyval(dpa, ta)
-        same = np.sign(f) == sa_
-        aa = np.where(same, ta, aa)
-        ca = np.where(same, ca, ta)
+        f, df = polyval_der(pw, tw)
+        same = np.sign(f) == sw
+        aw = np.where(same, tw, aw)
+        cw = np.where(same, cw, tw)
         with np.errstate(divide="ignore", invalid="ignore"):
-            tn = ta - f / df
-        bad = ~np.isfinite(tn) | (tn <= np.minimum(aa, ca)) | (tn >= np.maximum(aa, ca))
-        tn = np.where(bad, 0.5 * (aa + ca), tn)
-        done = (f == 0.0) | (np.abs(ca - aa) <= tol) | (~bad & (np.abs(tn - ta) <= tol))
-        t[act] = np.where(f == 0.0, ta, tn)
-        a[act], c[act] = aa, ca
-        act = act[~done]
-    return t
+            tn = tw - f / df
+        bad = ~np.isfinite(tn) | (tn <= np.minimum(aw, cw)) | (tn >= np.maximum(aw, cw))
+        tn = np.where(bad, 0.5 * (aw + cw), tn)
+        done = (f == 0.0) | (np.abs(cw - aw) <= tol) | (~bad & (np.abs(tn - tw) <= tol))
+        tw = np.where(live & (f != 0.0), tn, tw)
+        live &= ~done
+        if np.count_nonzero(live) < len(live) // 2:  # compact
+            out[idx] = tw
+            keep = np.nonzero(live)[0]
+            idx, pw, tw, aw, cw, sw = idx[keep], pw[keep], tw[keep], aw[keep], cw[keep], sw[keep]
+            live = np.ones(len(idx), dtype=bool)
+    out[idx] = tw
+    return out

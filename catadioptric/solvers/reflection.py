@@ -148,7 +148,8 @@ def newton_polish(r, A, B, C, c, h, sigma, iters=6):
         delta[~np.all(np.isfinite(delta), axis=-1)] = 0.0
         r[act] = ra + delta[:, :3]
         mu_all[act] = mu + delta[:, 3]
-        act = act[np.max(np.abs(delta[:, :3]), axis=-1) > 1e-12]
+        # quadratic convergence: after a step below 1e-8 the error is at rounding level
+        act = act[np.max(np.abs(delta[:, :3]), axis=-1) > 1e-8]
     return r
 
 
@@ -202,18 +203,24 @@ class ReflectionSolver:
 
     # -- shared pipeline
     def solve(self, targets, w, *, backward=False) -> ReflectionSolutions:
+        """Reflection points of targets ``(N, 3)`` with weights ``w`` (1: points, 0: directions),
+        NaN-padded to ``max_solutions`` per target."""
+        owner, r, fwd = self.solve_flat(targets, w, backward=backward)
+        return gather(len(targets), owner, r, fwd, self.max_solutions)
+
+    def solve_flat(self, targets, w, *, backward=False):
+        """Like :meth:`solve`, as flat arrays ``(owner, points, forward)`` without duplicates."""
         targets = np.asarray(targets, dtype=float)
         N = len(targets)
         w = np.broadcast_to(np.asarray(w, float), (N,))
         h = np.concatenate([np.where(w[:, None] > 0, targets / self.L, targets), (w > 0)[:, None] * 1.0], axis=1)
-        # homogeneous: scale each target to unit length (w stays 0, or becomes 1 / |(p, 1)|)
         nrm = np.linalg.norm(h, axis=1, keepdims=True)
         h = h / np.where(nrm > 0, nrm, 1.0)
         hf, cs, sn = self._frame(h)
         owner, r0 = self._candidates(hf)
         owner, r, fwd = self._finish(hf, owner, r0, backward)
         r = rot_z(cs[owner], -sn[owner], r) * self.L
-        return gather(N, owner, r, fwd, self.max_solutions)
+        return dedupe(owner, r, fwd)
 
     def _finish(self, h, owner, r0, backward):
         """Forward/backward assignment, polish and acceptance of candidates (solver frame)."""
@@ -246,35 +253,48 @@ class ReflectionSolver:
         return owner[ok], r[ok], fwd[ok]
 
 
+def dedupe(owner, r, fwd):
+    """Sort flat solutions by (owner, z) and drop repeats of one solution of one target."""
+    if len(owner) == 0:
+        return owner, r, fwd
+    order = np.lexsort((r[:, 2], owner))
+    owner, r, fwd = owner[order], r[order], fwd[order]
+    scale = np.maximum(np.max(np.abs(r), axis=1), 1e-300)
+    dup = np.zeros(len(owner), dtype=bool)
+    k = 1
+    while True:  # compare with the k-th previous entry of the same owner
+        same = owner[k:] == owner[:-k]
+        if not np.any(same):
+            break
+        close = np.linalg.norm(r[k:] - r[:-k], axis=1) <= DEDUP * scale[k:]
+        dup[k:] |= same & close & (fwd[k:] == fwd[:-k])
+        k += 1
+    keep = ~dup
+    return owner[keep], r[keep], fwd[keep]
+
+
+def rank_within(owner, key):
+    """Order flat entries by (owner, key) and give each its slot (rank) within its owner."""
+    order = np.lexsort((key, owner))
+    o = owner[order]
+    starts = np.r_[0, np.nonzero(np.diff(o))[0] + 1] if len(o) else np.zeros(0, dtype=np.intp)
+    counts = np.diff(np.r_[starts, len(o)])
+    slot = np.arange(len(o)) - np.repeat(starts, counts)
+    return order, slot
+
+
 def gather(N, owner, r, fwd, K):
     """Scatter flat solutions into (N, K) slots, dropping duplicates of one target."""
+    owner, r, fwd = dedupe(owner, r, fwd)
     out = np.full((N, K, 3), np.nan)
     fo = np.zeros((N, K), dtype=bool)
     found = np.zeros((N, K), dtype=bool)
-    if len(owner) == 0:
-        return ReflectionSolutions(out, fo, found)
-    order = np.lexsort((r[:, 2], owner))
-    owner, r, fwd = owner[order], r[order], fwd[order]
-    starts = np.r_[0, np.nonzero(np.diff(owner))[0] + 1]
-    counts = np.diff(np.r_[starts, len(owner)])
-    slot = np.arange(len(owner)) - np.repeat(starts, counts)
-    W = int(counts.max())
-    tmp = np.full((N, W, 3), np.nan)
-    tmp[owner, slot] = r
-    tf = np.zeros((N, W), dtype=bool)
-    tf[owner, slot] = fwd
-    if W > 1:  # pairwise duplicates within an owner: drop the later one
-        dist = np.linalg.norm(tmp[:, :, None, :] - tmp[:, None, :, :], axis=-1)
-        scale = np.maximum(np.nanmax(np.abs(tmp), axis=(1, 2), initial=0.0), 1e-300)[:, None, None]
-        dup = np.triu(np.ones((W, W), dtype=bool), 1)[None] & (dist <= DEDUP * scale) & (tf[:, :, None] == tf[:, None, :])
-        present = np.isfinite(tmp[..., 0]) & ~np.any(dup, axis=1)
-    else:
-        present = np.isfinite(tmp[..., 0])
-    rank = np.cumsum(present, axis=1) - 1
-    ii, jj = np.nonzero(present & (rank < K))
-    out[ii, rank[ii, jj]] = tmp[ii, jj]
-    fo[ii, rank[ii, jj]] = tf[ii, jj]
-    found[ii, rank[ii, jj]] = True
+    order, slot = rank_within(owner, r[:, 2])
+    ok = slot < K
+    o, sl = owner[order][ok], slot[ok]
+    out[o, sl] = r[order][ok]
+    fo[o, sl] = fwd[order][ok]
+    found[o, sl] = True
     return ReflectionSolutions(out, fo, found)
 
 

@@ -55,12 +55,15 @@ class SphereSolver:
         pad = 1e-9 * R
         return lo - pad, hi + pad
 
-    def solve(self, targets, w, *, backward=False) -> ReflectionSolutions:
+    def solve_flat(self, targets, w, *, backward=False):
         targets = np.asarray(targets, dtype=float)
         w = np.broadcast_to(np.asarray(w, float), (len(targets),))
         tf = np.where(w[:, None] > 0, (targets - self.o) @ self.Q.T, targets @ self.Q.T)
-        sol = self.axial.solve(tf, w, backward=backward)
-        r = sol.points @ self.Q + self.o
-        inside = sol.found & (r[..., 2] >= self.z_min - 1e-12 * self.R) & (r[..., 2] <= self.z_max + 1e-12 * self.R)
-        n_idx, k_idx = np.nonzero(inside)
-        return gather(len(targets), n_idx, r[n_idx, k_idx], sol.forward[n_idx, k_idx], self.degree)
+        owner, r, fwd = self.axial.solve_flat(tf, w, backward=backward)
+        r = r @ self.Q + self.o
+        inside = (r[:, 2] >= self.z_min - 1e-12 * self.R) & (r[:, 2] <= self.z_max + 1e-12 * self.R)
+        return owner[inside], r[inside], fwd[inside]
+
+    def solve(self, targets, w, *, backward=False) -> ReflectionSolutions:
+        owner, r, fwd = self.solve_flat(targets, w, backward=backward)
+        return gather(len(targets), owner, r, fwd, self.degree)
