@@ -275,7 +275,7 @@ def test_scene_validate_catches_broken_scenes(tiny):
 
 # ------------------------------------------------------------- views and rig
 def test_views_place_the_mirror_frame():
-    vs = views(SCENES / "urban_street.toml")
+    vs = views("urban_street")
     assert [n for n, _ in vs] == ["A", "B"]
     (_, a), (_, b) = vs
     np.testing.assert_allclose(a.origin_in_world, [-3.0, -1.8, 2.0], atol=1e-12)

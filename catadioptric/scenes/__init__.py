@@ -10,29 +10,12 @@ The meshes are built with trimesh (extra ``render``), imported when a scene is b
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 from .._checks import CatadioptricError
 from .scene import Scene, SceneObject
-from .spec import GENERATORS, as_spec, load_spec, read_scene_spec, scene_rig, views
+from .spec import GENERATORS, SPEC_DIR, as_spec, load_spec, read_scene_spec, scene_rig, spec_path, views
 
 __all__ = ["Scene", "SceneObject", "GENERATORS", "SPEC_DIR", "build_scene", "load_spec", "read_scene_spec",
            "views", "scene_rig", "spec_path"]
-
-#: The folder of the scene spec files of a source checkout (``scenes/``).
-SPEC_DIR = Path(__file__).resolve().parents[2] / "scenes"
-
-
-def spec_path(name_or_path) -> Path:
-    """A scene spec file: a path, or a name of ``scenes/<name>.toml``."""
-    p = Path(name_or_path)
-    if p.suffix in (".toml", ".json") or p.is_file():
-        return p
-    q = SPEC_DIR / f"{name_or_path}.toml"
-    if q.is_file():
-        return q
-    names = sorted(f.stem for f in SPEC_DIR.glob("*.toml")) if SPEC_DIR.is_dir() else []
-    raise CatadioptricError(f"spec: expected a scene spec file or one of {names}, got {str(name_or_path)!r}")
 
 
 def build_scene(spec_or_path, seed: int | None = None) -> Scene:
@@ -41,10 +24,7 @@ def build_scene(spec_or_path, seed: int | None = None) -> Scene:
     ``seed`` overrides the spec's ``seed``. The result is checked with
     :meth:`Scene.validate`; ``scene.spec`` holds the normalised spec.
     """
-    if isinstance(spec_or_path, (str, Path)):
-        spec = load_spec(spec_path(spec_or_path))
-    else:
-        spec = as_spec(spec_or_path)
+    spec = as_spec(spec_or_path)
     if seed is None:
         seed = spec["seed"]
     if not (isinstance(seed, int) and not isinstance(seed, bool) and seed >= 0):

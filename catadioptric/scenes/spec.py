@@ -16,7 +16,7 @@ from .._checks import CatadioptricError
 from ..frames import RigPose
 from ..rigspec import REQUIRED, SpecTable, read_rig_spec, read_spec_file
 
-__all__ = ["GENERATORS", "read_scene_spec", "load_spec", "as_spec", "views", "scene_rig", "view_rotation",
+__all__ = ["GENERATORS", "SPEC_DIR", "spec_path", "read_scene_spec", "load_spec", "as_spec", "views", "scene_rig", "view_rotation",
            "sun_direction"]
 
 GENERATORS = ("street", "chessboard")
@@ -286,10 +286,26 @@ def load_spec(path) -> dict:
     return read_scene_spec(data)
 
 
+#: The folder of the scene spec files of a source checkout (``scenes/``).
+SPEC_DIR = Path(__file__).resolve().parents[2] / "scenes"
+
+
+def spec_path(name_or_path) -> Path:
+    """A scene spec file: a path, or a name of ``scenes/<name>.toml``."""
+    p = Path(name_or_path)
+    if p.suffix in (".toml", ".json") or p.is_file():
+        return p
+    q = SPEC_DIR / f"{name_or_path}.toml"
+    if q.is_file():
+        return q
+    names = sorted(f.stem for f in SPEC_DIR.glob("*.toml")) if SPEC_DIR.is_dir() else []
+    raise CatadioptricError(f"spec: expected a scene spec file or one of {names}, got {str(name_or_path)!r}")
+
+
 def as_spec(spec_or_path) -> dict:
-    """A normalised spec from a path or a (raw or normalised) spec dict."""
+    """A normalised spec from a path, a name of ``scenes/<name>.toml`` or a (raw or normalised) spec dict."""
     if isinstance(spec_or_path, (str, Path)):
-        return load_spec(spec_or_path)
+        return load_spec(spec_path(spec_or_path))
     if isinstance(spec_or_path, dict):
         return read_scene_spec(spec_or_path)
     raise CatadioptricError(f"spec: expected a path or a spec dict, got {type(spec_or_path).__name__}")
