@@ -7,7 +7,9 @@ approximations with :func:`catadioptric.unified.fit_unified`:
   every central rig exactly (a pinhole at a focus, tilted or not). Its error measures the
   non-centrality alone; it is the headline.
 - ``omnidir``: the pure Mei model (no tilt), the form OpenCV's omnidir module uses; exported
-  as omnidir parameters. A tilted pinhole adds a model error of its own.
+  as omnidir parameters. Without the tilt it cannot absorb a lateral offset of the camera (the
+  best central model of a laterally displaced pinhole has a tilted virtual pinhole), so its
+  errors are an order of magnitude larger (docs/unified.md).
 
 For each approximation: the per-pixel angular error (for every pixel whose exact ray is valid,
 the angle between the exact reflected ray's direction and the direction of the

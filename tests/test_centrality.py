@@ -57,8 +57,8 @@ def test_error_grows_with_the_offset_from_the_focus():
             vals = [f[k][key] for f in figs]
             assert vals[0] < 1e-9, (k, key, vals)
             assert all(b > 1.2 * a for a, b in zip(vals, vals[1:])), (k, key, vals)
-    # the non-centrality of the 9 mm rig is visible but well below a degree once the pinhole's tilt
-    # is modelled; without the tilt (omnidir) the errors are many degrees (docs/unified.md)
+    # the non-centrality of the 9 mm rig is visible but below a few degrees with the tilt; the pure
+    # model cannot tilt its virtual pinhole to absorb the lateral offset: many degrees (docs/unified.md)
     assert 0.2 < figs[-1]["central"]["pixel_max_deg"] < 3.0
     assert figs[-1]["omnidir"]["pixel_max_deg"] > 5 * figs[-1]["central"]["pixel_max_deg"]
 
@@ -134,7 +134,7 @@ def test_committed_report_is_consistent():
     assert d["rig"]["camera"]["pinhole"]["width"] == 640
     for k in ("central", "omnidir"):
         assert S[k]["pixel_max_deg"] >= S[k]["pixel_median_deg"] > 0
-        assert S[k]["vp_max_deg"] <= S[k]["pixel_max_deg"] + 1e-6  # vanishing points are pixels too
+        assert S[k]["vp_max_deg"] <= 1.05 * S[k]["pixel_max_deg"]  # vanishing points are (sub)pixels too
     # the committed model reproduces its own vanishing-point figures
     from catadioptric.unified import UnifiedCamera
 
