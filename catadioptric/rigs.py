@@ -42,7 +42,7 @@ def _hyperboloid(offset=(0.0, 0.0, 0.0), width=640, height=480):
     # the lower (outer) focus: central there, non-central when offset
     m = QuadricMirror.hyperboloid(0.03, 0.04, z_min=0.04, z_max=0.075)
     c = m.foci[0] + np.asarray(offset, dtype=float)
-    return CatadioptricCamera.looking_at_mirror(m, _pin(width, height, 70.0), c, target=(0, 0, 0.06))
+    return CatadioptricCamera.looking_at_mirror(m, _pin(width, height, 54.0), c, target=(0, 0, 0.06))
 
 
 def _paraboloid(width=640, height=480):
