@@ -294,9 +294,10 @@ class CentralityReport:
             "direction and the unified model's for a real hyperbolic rig about 9 % off the central "
             "configuration (one vanishing point; calibration, mirror and camera unpublished).",
             "",
-            f"Vanishing points: {S['n_directions']} directions ({self.settings.get('n_random', '?')} seeded random, "
-            f"seed {self.settings.get('seed', '?')}, plus +-e1, +-e2, +-e3 of the mirror frame); "
-            f"{S['n_vp_seen']} have an observable exact vanishing point (method: {self.vp_method}). "
+            f"Vanishing points: {S['n_directions']} directions "
+            + (f"({self.settings['n_random']} seeded random, seed {self.settings['seed']}, plus +-e1, +-e2, +-e3 "
+               "of the mirror frame); " if self.settings.get("n_random") is not None else "(given by the caller); ")
+            + f"{S['n_vp_seen']} have an observable exact vanishing point (method: {self.vp_method}). "
             "Pixel error: exact vanishing point against the approximation's. Degrees: the angle between s "
             "and the approximation's ray through the exact vanishing point.",
             "",

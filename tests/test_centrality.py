@@ -16,10 +16,10 @@ W, H = 160, 120  # small images keep the fits fast; the fitted geometry does not
 
 def _hyperboloid_rig(offset_mm: float, width=W, height=H):
     """The hyperboloid preset's mirror and pinhole with the camera ``offset_mm`` off the focus
-    along x (offset 9 mm is the preset ``hyperboloid_9pct``)."""
-    m = cd.QuadricMirror.hyperboloid(0.03, 0.04, z_min=0.04, z_max=0.075)
-    pin = cd.PinholeCamera.from_fov(width, height, 70.0)
-    return cd.CatadioptricCamera.looking_at_mirror(m, pin, m.foci[0] + [offset_mm * 1e-3, 0, 0],
+    along x, aimed at the mirror (offset 9 mm is the preset ``hyperboloid_9pct``)."""
+    base = preset("hyperboloid_central", width=width, height=height)
+    m = base.mirror
+    return cd.CatadioptricCamera.looking_at_mirror(m, base.pinhole, m.foci[0] + [offset_mm * 1e-3, 0, 0],
                                                    target=(0, 0, 0.06))
 
 
