@@ -32,7 +32,8 @@ from .._checks import CatadioptricError
 from .common import (AMBIENT, LABEL_MIRROR_AGAIN, LABEL_NO_MIRROR, MAX_LABEL, RenderError, RenderResult, check_view,
                      load_quality, sky_radiance)
 
-__all__ = ["render_povray", "povray_version", "povray_binary", "scene_text", "mesh2_text"]
+__all__ = ["render_povray", "run_povray", "povray_version", "povray_binary", "scene_text", "mesh2_text",
+           "camera_vectors", "decode_label_pass"]
 
 _HIT = 256  # green step per mirror hit in the 16-bit label pass
 
@@ -174,22 +175,28 @@ def _error_lines(log: str, limit: int = 25) -> str:
     return "\n".join(lines[-limit:])
 
 
-def _run(exe, workdir, pov_name, png_name, args, timeout, what):
-    cmd = [exe, f"+I{pov_name}", f"+O{png_name}", "-D", "-P", "+V"] + args
+def run_povray(workdir: str, pov_text: str, name: str, args: list[str], timeout: float = 600.0) -> tuple[str, float]:
+    """Write ``name.pov`` in ``workdir``, render it to ``name.png`` with ``args``; return the PNG's
+    path and the seconds taken. The log goes to ``name.log``; on failure a :class:`RenderError`
+    shows its relevant lines."""
+    exe = povray_binary()
+    with open(os.path.join(workdir, name + ".pov"), "w") as f:
+        f.write(pov_text)
+    cmd = [exe, f"+I{name}.pov", f"+O{name}.png", "-D", "-P", "+V"] + list(args)
     t0 = time.perf_counter()
     try:
         proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=timeout,
                               env={**os.environ, "HOME": workdir})
     except subprocess.TimeoutExpired:
-        raise RenderError(f"povray: the {what} pass did not finish within timeout={timeout} s "
+        raise RenderError(f"povray: rendering {name}.pov did not finish within timeout={timeout!r} s "
                           f"(command: {' '.join(cmd)})") from None
     log = proc.stdout + proc.stderr
-    with open(os.path.join(workdir, pov_name + f".{what}.log"), "w") as f:
+    with open(os.path.join(workdir, name + ".log"), "w") as f:
         f.write(log)
-    out = os.path.join(workdir, png_name)
+    out = os.path.join(workdir, name + ".png")
     if proc.returncode != 0 or not os.path.exists(out):
-        raise RenderError(f"povray: the {what} pass failed with exit code {proc.returncode}; "
-                          f"relevant lines of its log:\n{_error_lines(log)}")
+        raise RenderError(f"povray: rendering {name}.pov failed with exit code {proc.returncode}; "
+                          f"relevant lines of its log ({os.path.join(workdir, name + '.log')}):\n{_error_lines(log)}")
     return out, time.perf_counter() - t0
 
 
@@ -219,7 +226,7 @@ def render_povray(scene, cam, pose, quality="standard", *, beauty: bool = True, 
 
     check_view(scene, cam, pose)
     q = load_quality(quality)
-    exe = povray_binary()
+    povray_binary()
     W, H = cam.pinhole.width, cam.pinhole.height
     common = [f"+W{W}", f"+H{H}", "-J"]
     if threads:
@@ -229,10 +236,8 @@ def render_povray(scene, cam, pose, quality="standard", *, beauty: bool = True, 
     workdir = ctx.name if ctx else keep_dir
     os.makedirs(workdir, exist_ok=True)
     try:
-        with open(os.path.join(workdir, "labels.pov"), "w") as f:
-            f.write(scene_text(scene, cam, pose, q, labels=True))
-        png, dt = _run(exe, workdir, "labels.pov", "labels.png",
-                       common + ["-A", "+FN16", "File_Gamma=1.0", "Output_Alpha=off"], timeout, "label")
+        png, dt = run_povray(workdir, scene_text(scene, cam, pose, q, labels=True), "labels",
+                             common + ["-A", "+FN16", "File_Gamma=1.0", "Output_Alpha=off"], timeout)
         img = cv2.imread(png, cv2.IMREAD_UNCHANGED)
         if img is None or img.dtype != np.uint16 or img.shape != (H, W, 3):
             raise RenderError(f"povray: the label pass wrote an unexpected image {png!r} "
@@ -240,12 +245,10 @@ def render_povray(scene, cam, pose, quality="standard", *, beauty: bool = True, 
         labels = decode_label_pass(img, scene.labels)
         info["seconds_labels"] = dt
         if beauty:
-            with open(os.path.join(workdir, "beauty.pov"), "w") as f:
-                f.write(scene_text(scene, cam, pose, q, labels=False))
             aa = (["+A" + _f(q["povray_antialias"]), "+AM2", f"+R{q['povray_aa_depth']}"]
                   if q["povray_antialias"] > 0 else ["-A"])
-            png, dt = _run(exe, workdir, "beauty.pov", "beauty.png",
-                           common + aa + ["+FN8", "File_Gamma=sRGB", "Output_Alpha=off"], timeout, "beauty")
+            png, dt = run_povray(workdir, scene_text(scene, cam, pose, q, labels=False), "beauty",
+                                 common + aa + ["+FN8", "File_Gamma=sRGB", "Output_Alpha=off"], timeout)
             img = cv2.imread(png, cv2.IMREAD_COLOR)
             if img is None or img.shape != (H, W, 3):
                 raise RenderError(f"povray: the beauty pass wrote an unexpected image {png!r}")

@@ -4,7 +4,9 @@ Independent of the seeded generators of :mod:`catadioptric.scenes` on purpose: t
 renderers, the tracer and the dataset code are checked on a scene whose every number
 is visible here. Ground (label 1), box buildings on both sides of a street along x,
 one building turned by ``yaw_deg`` (its own line families), and line tubes along
-building edges and road markings, each tube with its own label.
+building edges and road markings, each tube with its own label. No two faces of
+different objects are coplanar where they overlap (a ray meeting both at once has no
+well-defined first hit, and renderers break such ties differently).
 """
 from __future__ import annotations
 
@@ -68,7 +70,11 @@ def street_scene(seed: int = 0, *, tube_radius: float = 0.06, yaw_deg: float = 3
         return len(objects)
 
     def add_line(name, a, b, fam, color=(0.95, 0.85, 0.1)):
-        v, f = tube_mesh(a, b, tube_radius, sections)
+        # the tube stops one radius short of each end so that its caps never lie in a face of the
+        # building or ground it touches (coplanar faces have no well-defined first hit)
+        a, b = np.asarray(a, float), np.asarray(b, float)
+        u = (b - a) / np.linalg.norm(b - a)
+        v, f = tube_mesh(a + tube_radius * u, b - tube_radius * u, tube_radius, sections)
         lab = add(name, "line", v, f, color)
         segs.append([a, b])
         fams.append(fam)
@@ -106,12 +112,14 @@ def street_scene(seed: int = 0, *, tube_radius: float = 0.06, yaw_deg: float = 3
         add_line(f"turned_edge_{i}", yaw @ np.array(a, float) + c, yaw @ np.array(b, float) + c, fam)
     # road markings: dashes along the street axis, slightly above the ground
     for i, x in enumerate(np.arange(-26.0, 26.0, 6.0)):
-        add_line(f"marking_{i}", [x, 0.0, tube_radius], [x + 3.0, 0.0, tube_radius], 0, (0.95, 0.95, 0.95))
-    return Scene(objects=objects, segments=np.array(segs, float), segment_family=np.array(fams, np.int64),
-                 families=np.array(families, float), segment_label=np.array(seg_labels, np.int64),
-                 name="test_street", seed=seed, sun=np.array([0.4, -0.3, 0.866]) / np.linalg.norm([0.4, -0.3, 0.866]),
-                 spec={"generator": "catadioptric.render.testscene.street_scene", "seed": seed,
-                       "tube_radius": tube_radius, "yaw_deg": yaw_deg})
+        add_line(f"marking_{i}", [x, 0.0, 1.5 * tube_radius], [x + 3.0, 0.0, 1.5 * tube_radius], 0, (0.95, 0.95, 0.95))
+    scene = Scene(objects=objects, segments=np.array(segs, float), segment_family=np.array(fams, np.int64),
+                  families=np.array(families, float), segment_label=np.array(seg_labels, np.int64),
+                  name="test_street", seed=seed, sun=np.array([0.4, -0.3, 0.866]) / np.linalg.norm([0.4, -0.3, 0.866]),
+                  spec={"generator": "catadioptric.render.testscene.street_scene", "seed": seed,
+                        "tube_radius": tube_radius, "yaw_deg": yaw_deg})
+    scene.segment_radius = np.full(len(segs), tube_radius)  # the tube around each segment
+    return scene
 
 
 def street_views(rig_name: str = "hyperboloid") -> list[tuple[str, RigPose]]:

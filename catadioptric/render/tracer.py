@@ -101,18 +101,24 @@ class TriangleBVH:
         self.leaf_size = int(np.max(np.diff(self.leaf_bounds)))
 
     # ------------------------------------------------------------------ queries
-    def intersect(self, origins, directions, t_min: float = 0.0) -> Hits:
-        """First hit with ``t > t_min`` of each ray ``origins + t directions`` (float64)."""
+    def intersect(self, origins, directions, t_min: float = 0.0, exclude_labels=None) -> Hits:
+        """First hit with ``t > t_min`` of each ray ``origins + t directions`` (float64).
+
+        ``exclude_labels (N,)``: triangles of that label are ignored for that ray (-1: none)."""
         o = as_float_array(origins, "origins", 3).reshape(-1, 3)
         d = as_float_array(directions, "directions", 3).reshape(-1, 3)
         if o.shape != d.shape:
             raise CatadioptricError(f"origins, directions: expected the same shape, got {o.shape} and {d.shape}")
         t = np.full(len(o), np.inf)
         tri = np.full(len(o), -1, dtype=np.int64)
+        ex = None if exclude_labels is None else np.asarray(exclude_labels, dtype=np.int64).reshape(-1)
+        if ex is not None and ex.shape != (len(o),):
+            raise CatadioptricError(f"exclude_labels: expected shape ({len(o)},), got {ex.shape}")
         if self.n == 0:
             return Hits(t, tri)
         for s in range(0, len(o), RAY_CHUNK):
-            tt, ii = self._intersect_chunk(o[s:s + RAY_CHUNK], d[s:s + RAY_CHUNK], t_min)
+            tt, ii = self._intersect_chunk(o[s:s + RAY_CHUNK], d[s:s + RAY_CHUNK], t_min,
+                                           None if ex is None else ex[s:s + RAY_CHUNK])
             t[s:s + RAY_CHUNK] = tt
             tri[s:s + RAY_CHUNK] = ii
         return Hits(t, tri)
@@ -131,7 +137,7 @@ class TriangleBVH:
                 np.fmin(far, np.maximum(t0, t1), out=far)
         return near, near <= far
 
-    def _intersect_chunk(self, o, d, t_min):
+    def _intersect_chunk(self, o, d, t_min, ex):
         n = len(o)
         with np.errstate(divide="ignore"):
             inv = np.ascontiguousarray((1.0 / d).T)
@@ -163,12 +169,12 @@ class TriangleBVH:
             keep = nr <= best_t[r]
             r, nd = r[keep], nd[keep]
             if len(r):
-                self._test_leaves(r, nd, o, d, t_min, best_t, best_i)
+                self._test_leaves(r, nd, o, d, t_min, best_t, best_i, ex)
             lo_rank += width
             width *= 2
         return best_t, best_i
 
-    def _test_leaves(self, r, nd, o, d, t_min, best_t, best_i):
+    def _test_leaves(self, r, nd, o, d, t_min, best_t, best_i, ex=None):
         start = self.leaf_bounds[nd]
         count = self.leaf_bounds[nd + 1] - start
         k = np.arange(self.leaf_size)
@@ -177,6 +183,8 @@ class TriangleBVH:
         ti = (start[:, None] + k[None, :])[m]
         t = _moller_trumbore(o[rr], d[rr], self.v0[ti], self.e1[ti], self.e2[ti], t_min)
         hit = t < best_t[rr]
+        if ex is not None:
+            hit &= self.tri_labels[ti] != ex[rr]
         if not np.any(hit):
             return
         rr, ti, t = rr[hit], ti[hit], t[hit]
@@ -280,11 +288,20 @@ class TracedRays:
     origins_W: np.ndarray     # (H, W, 3) reflection points in W (NaN where the pixel misses the mirror)
     directions_W: np.ndarray  # (H, W, 3) unit reflected directions in W
     t: np.ndarray             # (H, W) distance to the first hit (inf: none)
+    ambiguous: np.ndarray     # (H, W) a surface of another label lies within TIE_REL * t of the first hit
 
 
-def trace_rays(scene, cam, pose, uv=None) -> TracedRays:
+# relative depth below which two surfaces of different labels tie (float32's resolution): a
+# renderer may report either label there, e.g. where coplanar faces of two objects overlap
+TIE_REL = 1e-6
+
+
+def trace_rays(scene, cam, pose, uv=None, *, ties: bool = True) -> TracedRays:
     """Trace pixel rays (default: every pixel centre) of the rig ``cam`` placed by ``pose``
-    (``x_M = R x_W + t``) through the mirror into ``scene`` (in W), in float64."""
+    (``x_M = R x_W + t``) through the mirror into ``scene`` (in W), in float64.
+
+    ``ties``: also find the pixels whose first hit is ambiguous (a second query excluding
+    the first hit's label; about doubles the time)."""
     if uv is None:
         uv = cam.pinhole.pixel_grid()
     uv = as_float_array(uv, "uv", 2)
@@ -295,15 +312,23 @@ def trace_rays(scene, cam, pose, uv=None) -> TracedRays:
     o_W = np.where(rays.hit[..., None], (rays.origins - pose.t) @ pose.R, np.nan)
     d_W = np.where(rays.hit[..., None], rays.directions @ pose.R, np.nan)
     t = np.full(shape, np.inf)
+    amb = np.zeros(shape, bool)
     ok = rays.valid
     if np.any(ok):
         bvh = scene_bvh(scene)
         hits = bvh.intersect(o_W[ok], d_W[ok])
-        labels[ok] = bvh.labels_of(hits).astype(np.int32)
+        lab = bvh.labels_of(hits)
+        labels[ok] = lab.astype(np.int32)
         t[ok] = hits.t
-    return TracedRays(labels, o_W, d_W, t)
+        if ties:
+            sel = np.flatnonzero(lab > 0)
+            h2 = bvh.intersect(o_W[ok][sel], d_W[ok][sel], exclude_labels=lab[sel])
+            a = np.zeros(len(lab), bool)
+            a[sel] = h2.t <= hits.t[sel] * (1 + TIE_REL)
+            amb[ok] = a
+    return TracedRays(labels, o_W, d_W, t, amb)
 
 
 def trace_labels(scene, cam, pose) -> np.ndarray:
     """The exact label image ``(H, W)`` int32 of a view (see the module docstring for the values)."""
-    return trace_rays(scene, cam, pose).labels
+    return trace_rays(scene, cam, pose, ties=False).labels

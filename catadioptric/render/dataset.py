@@ -1,0 +1,350 @@
+"""Datasets on disk: one folder per view plus a manifest (format: docs/formats.md, "Datasets").
+
+Each view folder holds ``beauty.png`` (RGB, 8-bit), ``labels.png`` (16-bit, the float64
+tracer's labels), ``groundtruth.json`` + ``groundtruth.npz`` and ``preview.png``, every
+file written atomically (temporary file + ``os.replace``), then ``done.json``: the
+completion marker with the view's parameter fingerprint and the SHA-256 of every file.
+A rerun skips a view whose marker matches its parameters and files, and redoes any
+other (missing, killed half-way, corrupted, or rendered with other parameters).
+
+Views run in this process (``workers=1``), in a local process pool (``workers=N``), or
+on a Dask cluster (``scheduler=ADDRESS``): the same function renders each view, so the
+outputs are byte-identical whichever way they ran.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import platform
+import re
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._checks import CatadioptricError
+from ..frames import RigPose
+from .common import (RenderError, atomic_write_bytes, atomic_write_json, encode_labels_png, load_quality)
+from .tracer import scene_digest
+
+__all__ = ["render_dataset", "render_view_files", "ViewTask", "view_status", "FILES", "RENDERERS", "FORMAT"]
+
+FORMAT = "catadioptric-dataset/1"
+FILES = ("beauty.png", "labels.png", "groundtruth.json", "groundtruth.npz", "preview.png")
+MARKER = "done.json"
+RENDERERS = ("mitsuba", "povray")
+_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,127}$")
+
+
+@dataclass
+class ViewTask:
+    """Everything one worker needs to render one view (picklable)."""
+
+    name: str
+    folder: str
+    renderer: str
+    quality: dict
+    camera: dict
+    pose: dict
+    seed: int
+    fingerprint: str
+    scene_digest: str
+    threads: int | None = None
+
+
+def _sha256(path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def view_status(folder: str, fingerprint: str) -> str:
+    """``done`` (marker matches parameters and every file's checksum), ``stale`` (rendered with
+    other parameters), ``broken`` (marker missing, unreadable or a file differs) or ``missing``."""
+    if not os.path.isdir(folder):
+        return "missing"
+    try:
+        with open(os.path.join(folder, MARKER)) as f:
+            marker = json.load(f)
+    except (OSError, ValueError):
+        return "broken"
+    if marker.get("fingerprint") != fingerprint:
+        return "stale"
+    files = marker.get("files", {})
+    if set(files) != set(FILES):
+        return "broken"
+    for name, digest in files.items():
+        p = os.path.join(folder, name)
+        if not os.path.isfile(p) or _sha256(p) != digest:
+            return "broken"
+    return "done"
+
+
+def _view_seed(scene_seed: int, name: str) -> int:
+    return int.from_bytes(hashlib.sha256(f"{int(scene_seed)}/{name}".encode()).digest()[:4], "little")
+
+
+def _fingerprint(d: dict) -> str:
+    return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()
+
+
+# ------------------------------------------------------------------- one view
+def render_view_files(scene, task: ViewTask) -> dict:
+    """Render one view and write its folder (the function every worker runs)."""
+    import cv2
+
+    from ..cameras import CatadioptricCamera
+    from .groundtruth import ground_truth, groundtruth_json, preview_image, write_npz
+    from .tracer import trace_rays
+
+    t_start = time.perf_counter()
+    if getattr(scene, "_catadioptric_digest", None) is None:
+        scene._catadioptric_digest = scene_digest(scene)
+    if scene._catadioptric_digest != task.scene_digest:
+        raise CatadioptricError(f"scene: the worker received a scene whose digest {scene._catadioptric_digest[:12]} "
+                                f"differs from the task's {task.scene_digest[:12]}")
+    cam = CatadioptricCamera.from_dict(task.camera)
+    pose = RigPose(np.array(task.pose["R"]), np.array(task.pose["t"]))
+    os.makedirs(task.folder, exist_ok=True)
+    # a stale marker must not survive a half-written rerun; leftovers of killed writes go too
+    for name in os.listdir(task.folder):
+        if name == MARKER or (name.startswith(".") and name.endswith(".tmp")):
+            os.unlink(os.path.join(task.folder, name))
+    if task.renderer == "mitsuba":
+        from .mitsuba import render_mitsuba
+
+        if task.threads:
+            import drjit as dr
+
+            dr.set_thread_count(int(task.threads))
+        res = render_mitsuba(scene, cam, pose, task.quality, seed=task.seed)
+    elif task.renderer == "povray":
+        from .povray import render_povray
+
+        res = render_povray(scene, cam, pose, task.quality, threads=task.threads)
+    else:
+        raise CatadioptricError(f"renderer: expected one of {list(RENDERERS)}, got {task.renderer!r}")
+    traced = trace_rays(scene, cam, pose)
+    gt = ground_truth(scene, cam, pose, view=task.name, traced=traced)
+    diff = res.labels != traced.labels
+    agreement = {"renderer": task.renderer, "differing_pixels": int(diff.sum()), "pixels": int(diff.size),
+                 "differing_unambiguous_pixels": int((diff & ~traced.ambiguous).sum()),
+                 "first_differing": [[int(r), int(c), int(traced.labels[r, c]), int(res.labels[r, c])]
+                                     for r, c in np.argwhere(diff)[:20]]}
+    info = {k: v for k, v in res.info.items() if not k.startswith("seconds")}
+    j = groundtruth_json(gt, scene, {"renderer": info, "renderer_label_agreement": agreement,
+                                     "scene": {"name": scene.name, "seed": int(scene.seed),
+                                               "digest": task.scene_digest},
+                                     "seed": task.seed})
+
+    def png(img, *flags):
+        ok, buf = cv2.imencode(".png", img, list(flags))
+        if not ok:
+            raise RenderError(f"opencv: could not encode a PNG for view {task.name!r}")
+        return buf.tobytes()
+
+    blobs = {
+        "beauty.png": png(np.ascontiguousarray(res.beauty[..., ::-1]), cv2.IMWRITE_PNG_COMPRESSION, 6),
+        "labels.png": png(encode_labels_png(traced.labels), cv2.IMWRITE_PNG_COMPRESSION, 6),
+        "groundtruth.json": (json.dumps(j, indent=1, allow_nan=False) + "\n").encode(),
+        "groundtruth.npz": write_npz(gt.arrays()),
+        "preview.png": png(np.ascontiguousarray(preview_image(res.beauty, gt, scene)[..., ::-1]),
+                           cv2.IMWRITE_PNG_COMPRESSION, 6),
+    }
+    for name, data in blobs.items():
+        atomic_write_bytes(os.path.join(task.folder, name), data)
+    atomic_write_json(os.path.join(task.folder, MARKER), {
+        "view": task.name, "fingerprint": task.fingerprint,
+        "files": {name: hashlib.sha256(data).hexdigest() for name, data in blobs.items()}})
+    return {"view": task.name, "status": "rendered", "seconds": time.perf_counter() - t_start,
+            "label_differing_pixels": agreement["differing_pixels"], "pixels": agreement["pixels"]}
+
+
+_WORKER_SCENE = {}
+
+
+def _pool_init(scene):
+    _WORKER_SCENE["scene"] = scene
+
+
+def _pool_run(task: ViewTask) -> dict:
+    return render_view_files(_WORKER_SCENE["scene"], task)
+
+
+# ------------------------------------------------------------------ versions
+def _git_commit() -> dict:
+    here = os.path.dirname(os.path.abspath(__file__))
+    try:
+        commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, cwd=here,
+                                timeout=20).stdout.strip() or None
+        dirty = bool(subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True,
+                                    text=True, cwd=here, timeout=20).stdout.strip()) if commit else None
+    except (OSError, subprocess.TimeoutExpired):
+        commit, dirty = None, None
+    return {"commit": commit, "dirty": dirty}
+
+
+def _versions(renderer: str) -> dict:
+    import cv2
+
+    from .. import __version__
+    from .mitsuba import mitsuba_version
+    from .povray import povray_version
+
+    out = {"python": platform.python_version(), "numpy": np.__version__, "opencv": cv2.__version__,
+           "catadioptric": __version__, "mitsuba": mitsuba_version(), "povray": povray_version()}
+    if renderer == "mitsuba":
+        from .mitsuba import mitsuba_variant
+
+        out["mitsuba_variant"] = mitsuba_variant()
+    return out
+
+
+def _jsonable(x):
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, np.generic):
+        return x.item()
+    return x
+
+
+# ------------------------------------------------------------------ the dataset
+def render_dataset(scene, views, cam, out_dir, *, renderer: str = "mitsuba", quality="standard", workers: int = 1,
+                   scheduler=None, rig: dict | None = None, progress: bool = True) -> dict:
+    """Render every view ``(name, RigPose)`` of ``scene`` seen by the rig ``cam`` into ``out_dir``.
+
+    ``workers > 1`` renders views in a local process pool; ``scheduler`` (a Dask scheduler
+    address such as ``tcp://127.0.0.1:8786``, or a ``distributed.Client``) runs them on a
+    Dask cluster instead. Finished views are skipped (see :func:`view_status`). Returns the
+    manifest (also written to ``out_dir/manifest.json``).
+    """
+    from ..cameras import CatadioptricCamera
+
+    if renderer not in RENDERERS:
+        raise CatadioptricError(f"renderer: expected one of {list(RENDERERS)}, got {renderer!r}")
+    if not isinstance(cam, CatadioptricCamera):
+        raise CatadioptricError(f"cam: expected a CatadioptricCamera, got {type(cam).__name__}")
+    if not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1):
+        raise CatadioptricError(f"workers: expected an integer >= 1, got {workers!r}")
+    q = load_quality(quality)
+    views = list(views)
+    if not views:
+        raise CatadioptricError("views: expected at least one (name, RigPose) pair, got none")
+    names = set()
+    for i, v in enumerate(views):
+        if not (isinstance(v, (tuple, list)) and len(v) == 2 and isinstance(v[1], RigPose)):
+            raise CatadioptricError(f"views[{i}]: expected a (name, RigPose) pair, got {v!r}")
+        if not (isinstance(v[0], str) and _NAME.match(v[0])):
+            raise CatadioptricError(f"views[{i}]: expected a view name of letters, digits, '_', '.', '-' "
+                                    f"(a folder name), got {v[0]!r}")
+        if v[0] in names:
+            raise CatadioptricError(f"views[{i}]: the view name {v[0]!r} is used twice")
+        names.add(v[0])
+    digest = scene_digest(scene)
+    scene._catadioptric_digest = digest
+    os.makedirs(out_dir, exist_ok=True)
+    if renderer == "povray":
+        from .povray import povray_binary
+
+        povray_binary()  # a clear error now rather than in every worker
+    versions = _versions(renderer)  # for mitsuba: probes and sets the variant once, before any worker starts
+    threads = None
+    if workers > 1 or scheduler is not None:
+        threads = max(1, (os.cpu_count() or 1) // workers) if scheduler is None else None
+    tasks, entries = [], []
+    for name, pose in views:
+        seed = _view_seed(scene.seed, name)
+        params = {"format": FORMAT, "renderer": renderer, "quality": q, "camera": cam.to_dict(),
+                  "pose": pose.to_dict(), "scene": digest, "seed": seed}
+        fp = _fingerprint(params)
+        folder = os.path.join(out_dir, name)
+        tasks.append(ViewTask(name, folder, renderer, q, cam.to_dict(), pose.to_dict(), seed, fp, digest, threads))
+        entries.append({"name": name, "folder": name, "seed": seed, "pose": pose.to_dict(), "fingerprint": fp})
+    status = {t.name: view_status(t.folder, t.fingerprint) for t in tasks}
+    todo = [t for t in tasks if status[t.name] != "done"]
+    results = {}
+    t0 = time.perf_counter()
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(tasks), initial=len(tasks) - len(todo), unit="view", desc=f"render {renderer}",
+                   file=sys.stderr, dynamic_ncols=True)
+    try:
+        for res in _run(scene, todo, workers, scheduler):
+            results[res["view"]] = res
+            if bar is not None:
+                bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+    agreement = {}
+    for e, t in zip(entries, tasks):
+        with open(os.path.join(t.folder, "groundtruth.json")) as f:
+            ag = json.load(f)["renderer_label_agreement"]
+        e["label_differing_pixels"] = ag["differing_pixels"]
+        agreement[t.name] = ag["differing_pixels"]
+    total_px = cam.pinhole.width * cam.pinhole.height * len(tasks)
+    manifest = {
+        "format": FORMAT,
+        "scene": {"name": scene.name, "seed": int(scene.seed), "digest": digest, "spec": _jsonable(scene.spec),
+                  "objects": len(scene.objects), "segments": int(len(scene.segments)),
+                  "families": int(len(scene.families)),
+                  "triangles": int(sum(len(o.faces) for o in scene.objects))},
+        "rig": {**_jsonable(rig or {}), "camera": cam.to_dict()},
+        "renderer": {"name": renderer, "quality": q},
+        "versions": versions,
+        **_git_commit(),
+        "files": list(FILES) + [MARKER],
+        "labels": {"sky": 0, "no_mirror": -1, "mirror_again": -2,
+                   "png": "uint16; 0..65533 as is, 65535 = -1, 65534 = -2"},
+        "views": entries,
+        "label_agreement": {"differing_pixels": int(sum(agreement.values())), "pixels": int(total_px)},
+        "run": {"created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "workers": workers,
+                "scheduler": None if scheduler is None else str(getattr(scheduler, "scheduler", scheduler)),
+                "rendered": sorted(results), "skipped": sorted(set(status) - set(results)),
+                "status_before": status, "seconds": time.perf_counter() - t0},
+    }
+    atomic_write_json(os.path.join(out_dir, "manifest.json"), manifest)
+    return manifest
+
+
+def _run(scene, todo, workers, scheduler):
+    """Yield each view's result as it finishes (in-process, process pool or Dask)."""
+    if not todo:
+        return
+    if scheduler is not None:
+        from dask.distributed import Client, as_completed
+
+        client = scheduler if isinstance(scheduler, Client) else Client(scheduler)
+        try:
+            [fut_scene] = client.scatter([scene], broadcast=True)
+            futs = [client.submit(render_view_files, fut_scene, t, pure=False, key=f"render-{t.name}-{t.fingerprint[:12]}")
+                    for t in todo]
+            for fut in as_completed(futs):
+                yield fut.result()
+        finally:
+            if client is not scheduler:
+                client.close()
+        return
+    if workers == 1:
+        for t in todo:
+            yield render_view_files(scene, t)
+        return
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor, as_completed as cf_completed
+
+    with ProcessPoolExecutor(max_workers=min(workers, len(todo)), mp_context=mp.get_context("spawn"),
+                             initializer=_pool_init, initargs=(scene,)) as ex:
+        futs = [ex.submit(_pool_run, t) for t in todo]
+        for f in cf_completed(futs):
+            yield f.result()
