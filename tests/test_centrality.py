@@ -128,6 +128,13 @@ def test_committed_report_is_consistent():
     if not os.path.exists(path):
         pytest.skip("validate/centrality/report.json not generated yet")
     d = json.loads(open(path).read())
+    cam = preset("hyperboloid_9pct")
+    same = (np.allclose(d["rig"]["camera"]["pinhole"]["K"], cam.pinhole.K, rtol=0, atol=1e-9)
+            and np.allclose(d["rig"]["camera"]["center"], cam.center, rtol=0, atol=1e-15)
+            and np.allclose(d["rig"]["camera"]["R_cam_from_mirror"], cam.R_cam_from_mirror, rtol=0, atol=1e-12)
+            and d["rig"]["camera"]["mirror"] == cam.mirror.to_dict())
+    assert same, ("the preset hyperboloid_9pct changed since validate/centrality was written: regenerate it with "
+                  "`catadioptric centrality --rig hyperboloid_9pct --out validate/centrality`")
     S = d["summary"]
     assert S["rig"] == "hyperboloid_9pct" and S["offset_pct"] == pytest.approx(9.0)
     assert d["settings"]["pixel_step"] == 1
