@@ -218,6 +218,18 @@ class CatadioptricCamera:
 
         return vanishing_curve(self, normal, **kwargs)
 
+    def line_image(self, points, directions, **kwargs):
+        """Exact images of 3-D lines (see :func:`catadioptric.lines.line_image`)."""
+        from .lines import line_image
+
+        return line_image(self, points, directions, **kwargs)
+
+    def segment_image(self, p0, p1, **kwargs):
+        """Exact images of 3-D segments (see :func:`catadioptric.lines.segment_image`)."""
+        from .lines import segment_image
+
+        return segment_image(self, p0, p1, **kwargs)
+
     def to_dict(self) -> dict:
         return {
             "mirror": self.mirror.to_dict(),

@@ -155,7 +155,7 @@ class VanishingCurve:
 
 
 def vanishing_curve(cam: CatadioptricCamera, normal, *, max_step_px: float = 1.0, n_start: int = 720,
-                    max_rounds: int = 40) -> list[VanishingCurve]:
+                    max_rounds: int = 60) -> list[VanishingCurve]:
     """The vanishing curve of the plane with ``normal`` (in M): the observable vanishing
     points of every direction perpendicular to it, as polylines whose consecutive
     vertices are at most ``max_step_px`` apart in the image.
@@ -163,9 +163,11 @@ def vanishing_curve(cam: CatadioptricCamera, normal, *, max_step_px: float = 1.0
     Directions are swept by angle, ``s(theta) = cos(theta) e1 + sin(theta) e2`` with
     ``(e1, e2)`` an orthonormal basis of the plane (an angle, not the paper's
     ``alpha s1 + (1 - alpha) s2``, which misses ``s1 - s2``); every vertex is an exact
-    vanishing point. The sweep is refined where neighbours are too far apart and
-    where the curve leaves the observable region, down to the ends.
+    vanishing point (:func:`catadioptric.curves.trace` refines the sweep where neighbours
+    are too far apart and where the curve leaves the observable region, down to 1e-9 rad).
     """
+    from .curves import trace
+
     m = as_float_array(normal, "normal", 3)
     if m.shape != (3,) or np.linalg.norm(m) == 0:
         raise CatadioptricError(f"normal: expected a non-zero 3-vector, got {m.tolist()}")
@@ -176,74 +178,18 @@ def vanishing_curve(cam: CatadioptricCamera, normal, *, max_step_px: float = 1.0
     e2 = np.cross(m, e1)
     dirs = lambda th: np.cos(th)[:, None] * e1 + np.sin(th)[:, None] * e2
 
-    theta = np.linspace(0.0, 2 * np.pi, n_start, endpoint=False)
-    vp = vanishing_points(cam, dirs(theta))
-    pts = {"theta": theta, "uv": vp.uv, "r": vp.mirror_points, "valid": vp.valid}
-    eps_theta = 1e-9  # ends of open pieces are located to 1e-9 rad of direction
-    for _ in range(max_rounds):
-        th, uv, valid = pts["theta"], pts["uv"], pts["valid"]
-        nxt = np.r_[th[1:], th[0] + 2 * np.pi]
-        uvn = np.roll(uv, -1, axis=0)
-        vn = np.roll(valid, -1, axis=0)
-        # pairwise distances between the slots of neighbouring samples
-        dist = np.linalg.norm(uv[:, :, None, :] - uvn[:, None, :, :], axis=-1)
-        dist = np.where(valid[:, :, None] & vn[:, None, :], dist, np.inf)
-        near_next = np.min(dist, axis=2)  # each valid point's nearest valid point at the next sample
-        near_prev = np.min(dist, axis=1)
-        gap = nxt - th
-        need = np.any(valid & (near_next > max_step_px), axis=1) | np.any(vn & (near_prev > max_step_px), axis=1)
-        need &= gap > eps_theta
-        if not np.any(need):
-            break
-        mid = 0.5 * (th[need] + nxt[need])
-        v2 = vanishing_points(cam, dirs(mid))
-        allth = np.r_[th, mid]
-        order = np.argsort(allth, kind="stable")
-        pts = {"theta": allth[order], "uv": np.concatenate([uv, v2.uv])[order],
-               "r": np.concatenate([pts["r"], v2.mirror_points])[order],
-               "valid": np.concatenate([valid, v2.valid])[order]}
-    return _chain(pts, dirs, max_step_px)
+    def evaluate(_ids, th):
+        vp = vanishing_points(cam, dirs(th))
+        return vp.uv, vp.mirror_points, vp.valid
 
+    # seeds: directions of the plane seen by every 4th pixel (pieces visible over tiny angles)
+    from .curves import pixel_grid_rays
 
-def _chain(pts, dirs, max_step_px) -> list[VanishingCurve]:
-    """Link each valid vertex to its nearest valid vertex at the next angle (within the step)."""
-    th, uv, r, valid = pts["theta"], pts["uv"], pts["r"], pts["valid"]
-    n, K = valid.shape
-    nodes = {(i, k) for i in range(n) for k in range(K) if valid[i, k]}
-    succ, pred = {}, {}
-    for i in range(n):
-        j = (i + 1) % n
-        for k in range(K):
-            if not valid[i, k]:
-                continue
-            d = np.where(valid[j], np.linalg.norm(uv[j] - uv[i, k], axis=-1), np.inf)
-            kk = int(np.argmin(d))
-            if d[kk] <= 2 * max_step_px and (j, kk) not in pred:
-                succ[(i, k)] = (j, kk)
-                pred[(j, kk)] = (i, k)
-    curves = []
-    seen = set()
-    starts = [nd for nd in sorted(nodes) if nd not in pred] + sorted(nodes)
-    for st in starts:
-        if st in seen:
-            continue
-        chain = [st]
-        seen.add(st)
-        cur = st
-        closed = False
-        while cur in succ:
-            cur = succ[cur]
-            if cur == st:
-                closed = True
-                break
-            if cur in seen:
-                break
-            chain.append(cur)
-            seen.add(cur)
-        ii = np.array([c[0] for c in chain])
-        kk = np.array([c[1] for c in chain])
-        if len(ii) > 1:  # drop vertices repeated within rounding (the refinement can stack them)
-            keep = np.r_[True, np.linalg.norm(np.diff(uv[ii, kk], axis=0), axis=1) > 1e-9]
-            ii, kk = ii[keep], kk[keep]
-        curves.append(VanishingCurve(uv[ii, kk], r[ii, kk], dirs(th[ii]), closed))
-    return curves
+    _, d, ang = pixel_grid_rays(cam, 4)
+    near = np.abs(d @ m) <= 1.5 * ang
+    th = np.mod(np.arctan2(d[near] @ e2, d[near] @ e1), 2 * np.pi)
+    if len(th) > 512:
+        th = np.sort(th)[np.linspace(0, len(th) - 1, 512).astype(int)]
+    pieces = trace(evaluate, [0.0], [2 * np.pi], periodic=True, max_step_px=max_step_px, n_start=n_start,
+                   max_rounds=max_rounds, seeds=(np.zeros(len(th), dtype=np.intp), th))[0]
+    return [VanishingCurve(p.uv, p.mirror_points, dirs(p.params), p.closed) for p in pieces]

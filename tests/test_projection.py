@@ -155,3 +155,20 @@ def test_property_round_trip_and_reflection_law(cam, seed):
     o = (tgt - r) / np.linalg.norm(tgt - r, axis=-1, keepdims=True)
     assert np.max(np.linalg.norm(i - 2 * np.sum(i * n, -1, keepdims=True) * n - o, axis=-1)) < 1e-9
     assert np.all(cam.mirror.in_patch(r, 1e-12))
+
+
+@pytest.mark.parametrize("name", ["ellipsoid", "hyperboloid_9pct", "sphere"])
+def test_targets_near_the_plane_of_camera_and_axis(name):
+    """Nearly symmetric configurations: reflection points with x ~ 1e-4 in the solver frame,
+    where x = sqrt(rho^2 - y^2) is ill-conditioned (a regression: such points were lost)."""
+    cam = preset(name, width=320, height=240)
+    c = cam.center
+    az = np.arctan2(c[1], c[0])
+    rng = np.random.default_rng(8)
+    u = np.array([np.cos(az), np.sin(az), 0.0])
+    v = np.array([-np.sin(az), np.cos(az), 0.0])
+    F = cam.mirror.foci[-1] if cam.mirror.foci else np.array([0, 0, 0.5 * (cam.mirror.z_min + cam.mirror.z_max)])
+    P = F + rng.normal(size=(6, 1)) * 0.003 * u + rng.normal(size=(6, 1)) * 1e-4 * v + rng.normal(size=(6, 1)) * [0, 0, 0.003]
+    pr = cam.project(P)
+    for i, p in enumerate(P):
+        _match(pr.mirror_points[i], pr.valid[i], reflection_points(cam, p, 1.0, n_phi=1440, n_z=600), cam.mirror.scale)

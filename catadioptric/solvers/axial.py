@@ -67,7 +67,10 @@ class AxialSolver(ReflectionSolver):
         # scale: the size of the terms of G (absolute coefficients), not its value at the root
         at = np.abs(t)
         Gs = sum(polyval(np.abs(G[:, k]), at)[:, None] * np.abs(ys) ** (2 - k) for k in range(3)) + 1e-300
-        keep = (np.abs(Gv) <= _SCREEN * Gs) & (rho2 >= -1e-9)[:, None]
+        # keep the branch that fits best, and any within a factor of it (see general.py)
+        rel = np.where((rho2 >= -1e-9)[:, None], np.abs(Gv) / Gs, np.inf)
+        best = rel.min(axis=1, keepdims=True)
+        keep = (rel <= np.maximum(_SCREEN, 10.0 * best)) & (best < 0.5)
         kk = np.nonzero(keep)
         r0 = np.stack([np.zeros(len(kk[0])), ys[kk], z[kk[0]]], axis=-1)
         return ridx[kk[0]], r0

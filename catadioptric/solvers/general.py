@@ -104,7 +104,15 @@ class GeneralSolver(ReflectionSolver):
         p1 = np.abs(hh[:, 0])
         sc = (polyval(np.abs(Ec), at)[:, None] * np.abs(xs) + (p1 * polyval(np.abs(self._f1), at))[:, None]
               * np.abs(ys) + (p1 * polyval(np.abs(self._f0), at))[:, None] + 1e-300)
-        keep = (res <= np.maximum(_SCREEN * sc, 1e-12)) & (rho2[:, None] - ys**2 >= -1e-7) & np.isfinite(ys)
+        # Screening picks the branch (y root, sign of x) that fits the coplanarity best. It must not
+        # be strict: x = sqrt(rho^2 - y^2) is ill-conditioned where x is small (targets near the
+        # plane of the camera and the axis) and z is a poor coordinate near a vertex, so a
+        # genuine root can carry a visible residual. Keep every candidate within a factor of the
+        # root's best; the polish and the acceptance test decide.
+        ok = (rho2[:, None] - ys**2 >= -1e-7) & np.isfinite(ys)
+        rel = np.where(ok, res / sc, np.inf)
+        best = rel.min(axis=1, keepdims=True)
+        keep = ok & (rel <= np.maximum(_SCREEN, 10.0 * best)) & (best < 0.5)
         kk = np.nonzero(keep)
         owners = [owner[kk[0]]]
         pts = [np.stack([xs[kk], ys[kk], z[kk[0]]], axis=-1)]

@@ -1,0 +1,187 @@
+"""Tracing image curves of one-parameter families of exactly computed points.
+
+A curve here is given by a function of a parameter (an angle of direction for a
+vanishing curve, a position along a 3-D line for a line image) that returns every
+image point for each parameter value, NaN-padded along a fixed axis K with a
+``valid`` mask. :func:`trace` samples the parameter, bisects it wherever two
+neighbouring samples are more than ``max_step_px`` apart in the image or where the
+curve leaves the observable region (down to ``param_tol``), links each point to the
+nearest point of the next sample, and returns the connected pieces as polylines.
+Every vertex is an exactly computed point; nothing is interpolated.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Piece", "trace"]
+
+
+@dataclass
+class Piece:
+    """One connected piece of a traced curve: ``uv (M, 2)``, ``mirror_points (M, 3)``,
+    ``params (M,)``, ``closed`` (the last vertex connects to the first), and whether the
+    piece reaches the ``start`` / ``stop`` of the parameter range."""
+
+    curve: int
+    uv: np.ndarray
+    mirror_points: np.ndarray
+    params: np.ndarray
+    closed: bool = False
+    at_start: bool = False
+    at_stop: bool = False
+
+
+def trace(evaluate, start, stop, *, periodic=False, max_step_px=1.0, n_start=64, param_tol=1e-9,
+          max_rounds=60, seeds=None) -> list[list[Piece]]:
+    """Trace curves ``c = 0 .. C-1`` over parameters ``[start[c], stop[c]]``.
+
+    ``evaluate(curve_ids (n,), params (n,)) -> (uv (n, K, 2), mirror_points (n, K, 3), valid (n, K))``.
+    With ``periodic``, ``stop`` is identified with ``start`` (e.g. angles over a full turn).
+    ``seeds = (curve_ids, params)``: extra starting samples, e.g. parameters known to be
+    seen by some pixel (see :func:`image_seeds`), so that pieces visible over a tiny range of
+    the parameter are not missed between the uniform samples.
+    Returns, for each curve, its list of pieces.
+    """
+    start = np.atleast_1d(np.asarray(start, float))
+    stop = np.atleast_1d(np.asarray(stop, float))
+    C = len(start)
+    u = np.linspace(0.0, 1.0, n_start, endpoint=not periodic)
+    cid = np.repeat(np.arange(C), n_start)
+    par = (start[:, None] + (stop - start)[:, None] * u[None, :]).ravel()
+    if seeds is not None and len(seeds[0]):
+        sc, sp = np.asarray(seeds[0], dtype=np.intp), np.asarray(seeds[1], float)
+        inside = (sp >= start[sc]) & (sp < stop[sc]) if periodic else (sp >= start[sc]) & (sp <= stop[sc])
+        cid = np.r_[cid, sc[inside]]
+        par = np.r_[par, sp[inside]]
+        order = np.lexsort((par, cid))
+        cid, par = cid[order], par[order]
+    uv, r, valid = evaluate(cid, par)
+    for _ in range(max_rounds):
+        nxt = np.r_[np.arange(1, len(cid)), 0]
+        same = np.r_[cid[1:] == cid[:-1], False]
+        last = ~same  # the last sample of each curve
+        if periodic:  # wraps to the first sample of the same curve
+            first = np.r_[0, np.nonzero(cid[1:] != cid[:-1])[0] + 1]
+            nxt[last] = first
+        link = same | (last & periodic)
+        pn = par[nxt] + np.where(same, 0.0, (stop - start)[cid])  # parameter of the next sample
+        d = np.linalg.norm(uv[:, :, None, :] - uv[nxt][:, None, :, :], axis=-1)
+        d = np.where(valid[:, :, None] & valid[nxt][:, None, :], d, np.inf)
+        far = np.any(valid & (d.min(axis=2) > max_step_px), axis=1) | np.any(valid[nxt] & (d.min(axis=1) > max_step_px),
+                                                                              axis=1)
+        need = link & far & (pn - par > param_tol)
+        if not np.any(need):
+            break
+        mid = 0.5 * (par[need] + pn[need])
+        mc = cid[need]
+        if periodic:
+            mid = np.where(mid >= stop[mc], mid - (stop - start)[mc], mid)
+        uv2, r2, v2 = evaluate(mc, mid)
+        cid = np.r_[cid, mc]
+        par = np.r_[par, mid]
+        order = np.lexsort((par, cid))
+        cid, par = cid[order], par[order]
+        uv = np.concatenate([uv, uv2])[order]
+        r = np.concatenate([r, r2])[order]
+        valid = np.concatenate([valid, v2])[order]
+    return [_chain(c, par[cid == c], uv[cid == c], r[cid == c], valid[cid == c], periodic, max_step_px,
+                   start[c], stop[c]) for c in range(C)]
+
+
+def _piece(c, uv, r, par, ii, kk, closed, periodic, start, stop):
+    if len(ii) > 1:  # the bisection can stack vertices at a piece's end: drop repeats
+        keep = np.r_[True, np.linalg.norm(np.diff(uv[ii, kk], axis=0), axis=1) > 1e-9]
+        ii, kk = ii[keep], kk[keep]
+    return Piece(c, uv[ii, kk], r[ii, kk], par[ii], closed,
+                 at_start=(not periodic) and bool(par[ii[0]] == start),
+                 at_stop=(not periodic) and bool(par[ii[-1]] == stop))
+
+
+def _chain(c, par, uv, r, valid, periodic, max_step_px, start, stop) -> list[Piece]:
+    """Link each valid point to the nearest valid point of the next sample (within the step)."""
+    n, K = valid.shape
+    if n and valid.sum(axis=1).max(initial=0) <= 1:
+        return _chain_single(c, par, uv, r, valid, periodic, max_step_px, start, stop)
+    succ, pred = {}, {}
+    for i in range(n if periodic else n - 1):
+        j = (i + 1) % n
+        if not np.any(valid[i]) or not np.any(valid[j]):
+            continue
+        d = np.linalg.norm(uv[i][:, None, :] - uv[j][None, :, :], axis=-1)
+        d = np.where(valid[i][:, None] & valid[j][None, :], d, np.inf)
+        # greedy one-to-one matching, closest pairs first
+        for flat in np.argsort(d, axis=None):
+            a, b = divmod(int(flat), K)
+            if not np.isfinite(d[a, b]) or d[a, b] > 2 * max_step_px:
+                break
+            if (i, a) in succ or (j, b) in pred:
+                continue
+            succ[(i, a)] = (j, b)
+            pred[(j, b)] = (i, a)
+    nodes = [(i, k) for i in range(n) for k in range(K) if valid[i, k]]
+    pieces, seen = [], set()
+    for st in [nd for nd in nodes if nd not in pred] + nodes:
+        if st in seen:
+            continue
+        chain, cur, closed = [st], st, False
+        seen.add(st)
+        while cur in succ:
+            cur = succ[cur]
+            if cur == st:
+                closed = True
+                break
+            if cur in seen:
+                break
+            chain.append(cur)
+            seen.add(cur)
+        ii = np.array([p[0] for p in chain])
+        kk = np.array([p[1] for p in chain])
+        pieces.append(_piece(c, uv, r, par, ii, kk, closed, periodic, start, stop))
+    return pieces
+
+
+def _chain_single(c, par, uv, r, valid, periodic, max_step_px, start, stop) -> list[Piece]:
+    """Fast path when every sample has at most one valid point: pieces are runs of linked samples."""
+    n = len(par)
+    k = np.argmax(valid, axis=1)
+    has = valid[np.arange(n), k]
+    p = uv[np.arange(n), k]
+    nxt = np.r_[np.arange(1, n), 0]
+    link = has & has[nxt] & (np.linalg.norm(p[nxt] - p, axis=1) <= 2 * max_step_px)
+    if not periodic:
+        link[-1] = False
+    idx = np.arange(n)
+    if periodic and np.all(link):
+        return [_piece(c, uv, r, par, idx, k, True, periodic, start, stop)]
+    # runs: a run starts at a valid sample not linked from its predecessor
+    prev_link = np.r_[link[-1] if periodic else False, link[:-1]]
+    starts = np.nonzero(has & ~prev_link)[0]
+    if len(starts) == 0:
+        return []
+    rot = np.roll(idx, -starts[0]) if periodic else idx  # periodic: begin at a run start
+    link_r, starts_r = link[rot], np.searchsorted(rot, starts) if not periodic else (starts - starts[0]) % n
+    starts_r = np.sort(starts_r)
+    breaks = np.nonzero(~link_r)[0]
+    ends = breaks[np.searchsorted(breaks, starts_r)]  # last sample of each run
+    return [_piece(c, uv, r, par, rot[a:b + 1], k[rot[a:b + 1]], False, periodic, start, stop)
+            for a, b in zip(starts_r, ends)]
+
+
+def pixel_grid_rays(cam, step: int):
+    """Reflected rays of every ``step``-th pixel of the image that sees the world, with the
+    angle between each ray and its grid neighbours (the angular resolution of the grid there)."""
+    grid = cam.pinhole.pixel_grid(step)
+    rays = cam.backproject(grid)
+    d = rays.directions
+    ang = np.full(d.shape[:2], np.nan)
+    with np.errstate(invalid="ignore"):
+        for axis in (0, 1):
+            a = np.arccos(np.clip(np.sum(np.diff(d, axis=axis) * 1.0 * np.take(d, range(d.shape[axis] - 1), axis=axis),
+                                         axis=-1), -1, 1))
+            pad = [(0, 0), (0, 0)]
+            pad[axis] = (0, 1)
+            ang = np.fmax(ang, np.pad(a, pad, constant_values=np.nan))
+    ok = rays.valid & np.isfinite(ang)
+    return rays.origins[ok], rays.directions[ok], ang[ok]
