@@ -115,6 +115,7 @@ def render_view_files(scene, task: ViewTask) -> dict:
     for name in os.listdir(task.folder):
         if name == MARKER or (name.startswith(".") and name.endswith(".tmp")):
             os.unlink(os.path.join(task.folder, name))
+    t0 = time.perf_counter()
     if task.renderer == "mitsuba":
         from .mitsuba import render_mitsuba
 
@@ -129,8 +130,11 @@ def render_view_files(scene, task: ViewTask) -> dict:
         res = render_povray(scene, cam, pose, task.quality, threads=task.threads)
     else:
         raise CatadioptricError(f"renderer: expected one of {list(RENDERERS)}, got {task.renderer!r}")
+    t1 = time.perf_counter()
     traced = trace_rays(scene, cam, pose)
+    t2 = time.perf_counter()
     gt = ground_truth(scene, cam, pose, view=task.name, traced=traced)
+    t3 = time.perf_counter()
     diff = res.labels != traced.labels
     agreement = {"renderer": task.renderer, "differing_pixels": int(diff.sum()), "pixels": int(diff.size),
                  "differing_unambiguous_pixels": int((diff & ~traced.ambiguous).sum()),
@@ -161,7 +165,9 @@ def render_view_files(scene, task: ViewTask) -> dict:
     atomic_write_json(os.path.join(task.folder, MARKER), {
         "view": task.name, "fingerprint": task.fingerprint,
         "files": {name: hashlib.sha256(data).hexdigest() for name, data in blobs.items()}})
-    return {"view": task.name, "status": "rendered", "seconds": time.perf_counter() - t_start,
+    t4 = time.perf_counter()
+    return {"view": task.name, "status": "rendered", "seconds": t4 - t_start,
+            "seconds_parts": {"render": t1 - t0, "trace": t2 - t1, "groundtruth": t3 - t2, "files": t4 - t3},
             "label_differing_pixels": agreement["differing_pixels"], "pixels": agreement["pixels"]}
 
 
@@ -312,7 +318,8 @@ def render_dataset(scene, views, cam, out_dir, *, renderer: str = "mitsuba", qua
         "run": {"created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "workers": workers,
                 "scheduler": None if scheduler is None else str(getattr(scheduler, "scheduler", scheduler)),
                 "rendered": sorted(results), "skipped": sorted(set(status) - set(results)),
-                "status_before": status, "seconds": time.perf_counter() - t0},
+                "status_before": status, "seconds": time.perf_counter() - t0,
+                "view_seconds": {k: v.get("seconds_parts", {}) | {"total": v["seconds"]} for k, v in results.items()}},
     }
     atomic_write_json(os.path.join(out_dir, "manifest.json"), manifest)
     return manifest

@@ -48,17 +48,19 @@ class Curve:
     visible: np.ndarray = None
 
 
-def _project_padded(cam, pts, K):
+def _project(cam, pts):
     pr = cam.project(pts)
-    uv, r, valid, inimg = pr.uv, pr.mirror_points, pr.valid, pr.in_image
-    k = uv.shape[1]
-    if k < K:
-        pad = K - k
-        uv = np.concatenate([uv, np.full((len(uv), pad, 2), np.nan)], 1)
-        r = np.concatenate([r, np.full((len(r), pad, 3), np.nan)], 1)
-        valid = np.concatenate([valid, np.zeros((len(valid), pad), bool)], 1)
-        inimg = np.concatenate([inimg, np.zeros((len(inimg), pad), bool)], 1)
-    return uv[:, :K], r[:, :K], valid[:, :K], inimg[:, :K]
+    return pr.uv, pr.mirror_points, pr.valid, pr.in_image
+
+
+def _far_apart(uv1, v1, uv2, v2, max_step_px):
+    """For pairs of samples (rows): True where a valid image of one has no valid image of the
+    other within ``max_step_px`` (valid entries come first: only the first columns matter)."""
+    kc = max(int(v1.sum(axis=1).max(initial=0)), int(v2.sum(axis=1).max(initial=0)), 1)
+    uv1, v1, uv2, v2 = uv1[:, :kc], v1[:, :kc], uv2[:, :kc], v2[:, :kc]
+    d = np.linalg.norm(uv1[:, :, None, :] - uv2[:, None, :, :], axis=-1)
+    d = np.where(v1[:, :, None] & v2[:, None, :], d, np.inf)
+    return np.any(v1 & (d.min(axis=2) > max_step_px), axis=1) | np.any(v2 & (d.min(axis=1) > max_step_px), axis=1)
 
 
 def line_curves(cam, a_M, b_M, *, max_step_px: float = 1.0, n_start: int = 33, max_rounds: int = 40,
@@ -66,51 +68,45 @@ def line_curves(cam, a_M, b_M, *, max_step_px: float = 1.0, n_start: int = 33, m
     """Exact image polylines of the segments ``a_M (L, 3)`` -> ``b_M (L, 3)`` (mirror frame).
 
     Every vertex is an exact forward projection; samples are refined (bisection, all
-    segments batched) where neighbouring images are more than ``max_step_px`` apart or
-    where the number of observable images changes (the ends of each piece), then chained
-    to the nearest image of the next sample.
+    segments batched, only the intervals still too coarse) where neighbouring images are
+    more than ``max_step_px`` apart or where the number of observable images changes (the
+    ends of each piece, down to ``min_dt``), then chained to the nearest image of the next
+    sample.
     """
     a = np.asarray(a_M, dtype=float).reshape(-1, 3)
     b = np.asarray(b_M, dtype=float).reshape(-1, 3)
     L = len(a)
     if L == 0:
         return []
-    t0 = np.linspace(0.0, 1.0, n_start)
     seg = np.repeat(np.arange(L), n_start)
-    t = np.tile(t0, L)
-    pts = a[seg] + t[:, None] * (b - a)[seg]
-    pr = cam.project(pts)
-    K = max(pr.uv.shape[1], 1)
-    uv, r, valid, inimg = pr.uv, pr.mirror_points, pr.valid, pr.in_image
+    t = np.tile(np.linspace(0.0, 1.0, n_start), L)
+    uv, r, valid, inimg = _project(cam, a[seg] + t[:, None] * (b - a)[seg])
+    left = np.flatnonzero(seg[1:] == seg[:-1])
+    right = left + 1
     for _ in range(max_rounds):
-        same = seg[1:] == seg[:-1]
-        d = np.linalg.norm(uv[:-1, :, None, :] - uv[1:, None, :, :], axis=-1)
-        d = np.where(valid[:-1, :, None] & valid[1:, None, :], d, np.inf)
-        near_next = np.min(d, axis=2)
-        near_prev = np.min(d, axis=1)
-        need = np.any(valid[:-1] & (near_next > max_step_px), axis=1) | np.any(valid[1:] & (near_prev > max_step_px),
-                                                                             axis=1)
-        need &= same & (t[1:] - t[:-1] > min_dt)
+        need = _far_apart(uv[left], valid[left], uv[right], valid[right], max_step_px)
+        need &= t[right] - t[left] > min_dt
         if not np.any(need):
             break
-        i = np.nonzero(need)[0]
-        tm = 0.5 * (t[i] + t[i + 1])
-        sm = seg[i]
-        uvm, rm, vm, im = _project_padded(cam, a[sm] + tm[:, None] * (b - a)[sm], K)
-        seg = np.concatenate([seg, sm])
-        t = np.concatenate([t, tm])
-        order = np.lexsort((t, seg))
-        seg, t = seg[order], t[order]
-        uv = np.concatenate([uv, uvm])[order]
-        r = np.concatenate([r, rm])[order]
-        valid = np.concatenate([valid, vm])[order]
-        inimg = np.concatenate([inimg, im])[order]
-    return _chain(seg, t, uv, r, valid, inimg, 2.0 * max_step_px)
+        lo, hi = left[need], right[need]
+        tm = 0.5 * (t[lo] + t[hi])
+        sm = seg[lo]
+        uvm, rm, vm, im = _project(cam, a[sm] + tm[:, None] * (b - a)[sm])
+        mid = len(t) + np.arange(len(tm))
+        seg, t = np.concatenate([seg, sm]), np.concatenate([t, tm])
+        uv, r = np.concatenate([uv, uvm]), np.concatenate([r, rm])
+        valid, inimg = np.concatenate([valid, vm]), np.concatenate([inimg, im])
+        # only the two halves of each refined interval are looked at again
+        left, right = np.concatenate([lo, mid]), np.concatenate([mid, hi])
+    order = np.lexsort((t, seg))
+    return _chain(seg[order], t[order], uv[order], r[order], valid[order], inimg[order], 2.0 * max_step_px)
 
 
 def _chain(seg, t, uv, r, valid, inimg, max_link) -> list[Curve]:
     """Link each valid image to the nearest valid image of the next sample of the same segment."""
-    n, K = valid.shape
+    n = len(seg)
+    K = max(int(valid.sum(axis=1).max(initial=0)), 1)  # valid entries come first
+    uv, r, valid, inimg = uv[:, :K], r[:, :K], valid[:, :K], inimg[:, :K]
     nxt = np.full((n, K), -1, dtype=np.int64)
     has_pred = np.zeros((n, K), bool)
     same = np.r_[seg[1:] == seg[:-1], False]
@@ -132,8 +128,7 @@ def _chain(seg, t, uv, r, valid, inimg, max_link) -> list[Curve]:
         d[rows, k1, :] = np.inf
         d[rows, :, k2] = np.inf
     curves = []
-    starts = np.argwhere(valid & ~has_pred)
-    for i0, k0 in starts:
+    for i0, k0 in np.argwhere(valid & ~has_pred):
         idx_i, idx_k = [i0], [k0]
         i, k = i0, k0
         while nxt[i, k] >= 0:
@@ -160,11 +155,12 @@ def _visibility(scene, pose, curves: list[Curve], seg_W, radius, labels) -> None
     o = (r_M - pose.t) @ pose.R
     v = P - o
     dist = np.linalg.norm(v, axis=1)
-    hits = bvh.intersect(o, v / dist[:, None])
-    hit_label = bvh.labels_of(hits)
     tol = np.maximum(radius[sid], 1e-9 * dist) * (1 + 1e-9)
+    # only what lies before the point (minus the tolerance) can hide it
+    hits = bvh.intersect(o, v / dist[:, None], t_max=dist - tol)
+    hit_label = bvh.labels_of(hits)
     own = (labels[sid] > 0) & (hit_label == labels[sid])
-    vis = (hits.t >= dist - tol) | own
+    vis = ~np.isfinite(hits.t) | own
     k = 0
     for c in curves:
         c.visible = vis[k:k + len(c.t)]

@@ -4,12 +4,15 @@ Pixel-centre rays are reflected on the exact quadric by :func:`catadioptric.proj
 (float64) and intersected with the scene's triangles in float64 by a bounding-volume
 hierarchy traversed breadth-first over whole batches of rays with numpy:
 
-* build: a balanced median-split tree in complete-binary layout (node ``i`` of level ``l``
-  covers the triangles ``[floor(i N / 2^l), floor((i + 1) N / 2^l))`` of a permutation that
-  is re-sorted, level by level, along each node's longest centroid extent);
-* traversal: (ray, node) pairs go down the levels together (one slab test per pair and
-  level); at the leaves the pairs are visited nearest box first, in rounds, so that a ray
-  stops testing triangles once its nearest hit is closer than its next box;
+* build: triangles longer than 1/128 of the scene's extent are first bisected along their
+  longest edge (the surface is unchanged; a ground plane of two triangles would otherwise
+  give boxes every ray enters), then a balanced median-split tree in complete-binary
+  layout (node ``i`` of level ``l`` covers the triangles ``[floor(i N / 2^l),
+  floor((i + 1) N / 2^l))`` of a permutation that is re-sorted, level by level, along each
+  node's longest centroid extent);
+* traversal: (ray, node) pairs go down ``SUBTREE`` levels together (one slab test per pair
+  and level), then each ray visits its subtrees nearest box first, in rounds, and skips
+  the boxes farther than its best hit so far, down to the leaves;
 * triangles: Moeller-Trumbore in float64.
 
 Labels (docs/formats.md, "Datasets"): ``0`` nothing hit (sky), ``-1`` the pixel does not
@@ -34,6 +37,8 @@ LABEL_MIRROR_AGAIN = -2
 
 LEAF = 4            # triangles per leaf (at most)
 RAY_CHUNK = 1 << 15  # rays traversed together (bounds the memory of the pair lists)
+SUBTREE = 4          # levels descended breadth-first before the pairs are visited nearest box first
+SPLIT_FRACTION = 128  # triangles longer than 1/128 of the scene's extent are split for the hierarchy
 _BARY_TOL = 1e-12    # barycentric slack: a ray through a shared edge hits one of its triangles
 
 
@@ -57,11 +62,20 @@ class TriangleBVH:
             raise CatadioptricError(f"faces: expected vertex indices in [0, {len(v)}), got range "
                                     f"[{int(f.min())}, {int(f.max())}]")
         tri = v[f]  # (N, 3, 3)
+        labels = (np.zeros(len(tri), np.int64) if triangle_labels is None
+                  else np.asarray(triangle_labels, dtype=np.int64))
+        if labels.shape != (len(tri),):
+            raise CatadioptricError(f"triangle_labels: expected shape ({len(tri)},), got {labels.shape}")
+        self.n_input = len(tri)
+        # long triangles (a ground plane, long thin tubes) make boxes that every ray enters: bisect
+        # their longest edge until the boxes are small against the scene (the surface is unchanged)
+        source = np.arange(len(tri))
+        if len(tri):
+            ext = float(np.max(tri.reshape(-1, 3).max(0) - tri.reshape(-1, 3).min(0)))
+            tri, source = _split_long(tri, source, max(ext / SPLIT_FRACTION, 1e-300))
         self.n = len(tri)
-        self.labels = (np.zeros(self.n, np.int64) if triangle_labels is None
-                       else np.asarray(triangle_labels, dtype=np.int64))
-        if self.labels.shape != (self.n,):
-            raise CatadioptricError(f"triangle_labels: expected shape ({self.n},), got {self.labels.shape}")
+        self.source = source
+        self.labels = labels[source]
         if self.n == 0:
             self.depth = 0
             return
@@ -101,9 +115,10 @@ class TriangleBVH:
         self.leaf_size = int(np.max(np.diff(self.leaf_bounds)))
 
     # ------------------------------------------------------------------ queries
-    def intersect(self, origins, directions, t_min: float = 0.0, exclude_labels=None) -> Hits:
-        """First hit with ``t > t_min`` of each ray ``origins + t directions`` (float64).
+    def intersect(self, origins, directions, t_min: float = 0.0, t_max=None, exclude_labels=None) -> Hits:
+        """First hit with ``t_min < t < t_max`` of each ray ``origins + t directions`` (float64).
 
+        ``t_max``: a number or one per ray (default: no limit; a limit prunes the traversal).
         ``exclude_labels (N,)``: triangles of that label are ignored for that ray (-1: none)."""
         o = as_float_array(origins, "origins", 3).reshape(-1, 3)
         d = as_float_array(directions, "directions", 3).reshape(-1, 3)
@@ -114,20 +129,21 @@ class TriangleBVH:
         ex = None if exclude_labels is None else np.asarray(exclude_labels, dtype=np.int64).reshape(-1)
         if ex is not None and ex.shape != (len(o),):
             raise CatadioptricError(f"exclude_labels: expected shape ({len(o)},), got {ex.shape}")
+        tmax = np.broadcast_to(np.inf if t_max is None else np.asarray(t_max, dtype=np.float64), (len(o),))
         if self.n == 0:
             return Hits(t, tri)
         for s in range(0, len(o), RAY_CHUNK):
-            tt, ii = self._intersect_chunk(o[s:s + RAY_CHUNK], d[s:s + RAY_CHUNK], t_min,
+            tt, ii = self._intersect_chunk(o[s:s + RAY_CHUNK], d[s:s + RAY_CHUNK], t_min, tmax[s:s + RAY_CHUNK],
                                            None if ex is None else ex[s:s + RAY_CHUNK])
             t[s:s + RAY_CHUNK] = tt
             tri[s:s + RAY_CHUNK] = ii
         return Hits(t, tri)
 
-    def _slab(self, level, nodes, o, inv, tmin):
+    def _slab(self, level, nodes, o, inv, tmin, tmax):
         """Entry distance of rays ``o, inv`` (3, P) into boxes ``nodes`` of ``level`` and whether they enter."""
         bx = self.boxes[level][:, nodes]
         near = np.full(len(nodes), tmin)
-        far = np.full(len(nodes), np.inf)
+        far = np.array(tmax, dtype=np.float64)
         with np.errstate(invalid="ignore"):
             for k in range(3):
                 t0 = (bx[k] - o[k]) * inv[k]
@@ -137,31 +153,27 @@ class TriangleBVH:
                 np.fmin(far, np.maximum(t0, t1), out=far)
         return near, near <= far
 
-    def _intersect_chunk(self, o, d, t_min, ex):
-        n = len(o)
-        with np.errstate(divide="ignore"):
-            inv = np.ascontiguousarray((1.0 / d).T)
-        oT = np.ascontiguousarray(o.T)
-        best_t = np.full(n, np.inf)
-        best_i = np.full(n, -1, dtype=np.int64)
-        rays = np.arange(n)
-        nodes = np.zeros(n, dtype=np.int64)
-        near, ok = self._slab(0, nodes, oT, inv, t_min)
+    def _descend(self, rays, nodes, level, steps, oT, inv, t_min, best_t):
+        """Breadth-first from ``level`` down ``steps`` levels: the (ray, node) pairs whose boxes the
+        rays enter before their current best hit, with the entry distances."""
+        near, ok = self._slab(level, nodes, oT[:, rays], inv[:, rays], t_min, best_t[rays])
         rays, nodes, near = rays[ok], nodes[ok], near[ok]
-        for level in range(1, self.depth + 1):
+        for lv in range(level + 1, level + steps + 1):
             rays = np.repeat(rays, 2)
             nodes = np.repeat(nodes << 1, 2)
             nodes[1::2] += 1
-            near, ok = self._slab(level, nodes, oT[:, rays], inv[:, rays], t_min)
+            near, ok = self._slab(lv, nodes, oT[:, rays], inv[:, rays], t_min, best_t[rays])
             rays, nodes, near = rays[ok], nodes[ok], near[ok]
-        if len(rays) == 0:
-            return best_t, best_i
-        # leaves, nearest box first per ray, in rounds of growing width
+        return rays, nodes, near
+
+    def _ordered(self, rays, nodes, near, level, ctx):
+        """Visit the subtrees (ray, node at ``level``) nearest box first, in rounds of growing width:
+        a ray stops descending into boxes farther than its best hit so far."""
+        o, d, oT, inv, t_min, best_t, best_i, ex = ctx
         order = np.lexsort((near, rays))
         rays, nodes, near = rays[order], nodes[order], near[order]
-        first = np.searchsorted(rays, rays, side="left")
-        rank = np.arange(len(rays)) - first
-        max_rank = int(rank.max())
+        rank = np.arange(len(rays)) - np.searchsorted(rays, rays, side="left")
+        max_rank = int(rank.max(initial=-1))
         lo_rank, width = 0, 1
         while lo_rank <= max_rank:
             sel = (rank >= lo_rank) & (rank < lo_rank + width)
@@ -169,10 +181,40 @@ class TriangleBVH:
             keep = nr <= best_t[r]
             r, nd = r[keep], nd[keep]
             if len(r):
-                self._test_leaves(r, nd, o, d, t_min, best_t, best_i, ex)
+                if level == self.depth:
+                    self._test_leaves(r, nd, o, d, t_min, best_t, best_i, ex)
+                else:
+                    steps = min(SUBTREE, self.depth - level)
+                    r2, n2, near2 = self._descend(r, nd, level, 0, oT, inv, t_min, best_t)
+                    r2, n2, near2 = self._descend_children(r2, n2, level, steps, oT, inv, t_min, best_t)
+                    if len(r2):
+                        self._ordered(r2, n2, near2, level + steps, ctx)
             lo_rank += width
             width *= 2
-        return best_t, best_i
+
+    def _descend_children(self, rays, nodes, level, steps, oT, inv, t_min, best_t):
+        near = None
+        for lv in range(level + 1, level + steps + 1):
+            rays = np.repeat(rays, 2)
+            nodes = np.repeat(nodes << 1, 2)
+            nodes[1::2] += 1
+            near, ok = self._slab(lv, nodes, oT[:, rays], inv[:, rays], t_min, best_t[rays])
+            rays, nodes, near = rays[ok], nodes[ok], near[ok]
+        return rays, nodes, near
+
+    def _intersect_chunk(self, o, d, t_min, tmax, ex):
+        n = len(o)
+        with np.errstate(divide="ignore"):
+            inv = np.ascontiguousarray((1.0 / d).T)
+        oT = np.ascontiguousarray(o.T)
+        best_t = np.array(tmax, dtype=np.float64)  # hits must come before t_max
+        best_i = np.full(n, -1, dtype=np.int64)
+        top = min(SUBTREE, self.depth)
+        rays, nodes, near = self._descend(np.arange(n), np.zeros(n, dtype=np.int64), 0, top, oT, inv, t_min,
+                                          best_t)
+        if len(rays):
+            self._ordered(rays, nodes, near, top, (o, d, oT, inv, t_min, best_t, best_i, ex))
+        return np.where(best_i >= 0, best_t, np.inf), best_i
 
     def _test_leaves(self, r, nd, o, d, t_min, best_t, best_i, ex=None):
         start = self.leaf_bounds[nd]
@@ -208,8 +250,28 @@ class TriangleBVH:
         """Index in the input ``faces`` of triangles returned by :meth:`intersect` (-1 stays -1)."""
         out = np.full(np.shape(triangle), -1, dtype=np.int64)
         ok = triangle >= 0
-        out[ok] = self.perm[triangle[ok]]
+        out[ok] = self.source[self.perm[triangle[ok]]]
         return out
+
+
+def _split_long(tri, source, max_edge, max_rounds=12):
+    """Bisect the longest edge of every triangle longer than ``max_edge`` (repeatedly); returns the
+    pieces and the index of the input triangle each comes from. Orientation is kept."""
+    for _ in range(max_rounds):
+        e = np.stack([np.linalg.norm(tri[:, (k + 1) % 3] - tri[:, k], axis=1) for k in range(3)], axis=1)
+        k = np.argmax(e, axis=1)
+        long = e[np.arange(len(tri)), k] > max_edge
+        if not np.any(long):
+            break
+        t, kk = tri[long], k[long]
+        i = np.arange(len(t))
+        a, b, c = t[i, kk], t[i, (kk + 1) % 3], t[i, (kk + 2) % 3]  # longest edge a -> b, opposite c
+        m = 0.5 * (a + b)
+        first = np.stack([a, m, c], axis=1)
+        second = np.stack([m, b, c], axis=1)
+        tri = np.concatenate([tri[~long], first, second])
+        source = np.concatenate([source[~long], source[long], source[long]])
+    return tri, source
 
 
 def _moller_trumbore(o, d, v0, e1, e2, t_min):
@@ -227,7 +289,7 @@ def _moller_trumbore(o, d, v0, e1, e2, t_min):
         u = (sx * px + sy * py + sz * pz) * inv
         v = (dx * qx + dy * qy + dz * qz) * inv
         t = (bx * qx + by * qy + bz * qz) * inv
-    ok = (det != 0) & (u >= -_BARY_TOL) & (v >= -_BARY_TOL) & (u + v <= 1 + _BARY_TOL) & (t > t_min)
+        ok = (det != 0) & (u >= -_BARY_TOL) & (v >= -_BARY_TOL) & (u + v <= 1 + _BARY_TOL) & (t > t_min)
     return np.where(ok, t, np.inf)
 
 
@@ -322,7 +384,8 @@ def trace_rays(scene, cam, pose, uv=None, *, ties: bool = True) -> TracedRays:
         t[ok] = hits.t
         if ties:
             sel = np.flatnonzero(lab > 0)
-            h2 = bvh.intersect(o_W[ok][sel], d_W[ok][sel], exclude_labels=lab[sel])
+            h2 = bvh.intersect(o_W[ok][sel], d_W[ok][sel], t_max=hits.t[sel] * (1 + 2 * TIE_REL),
+                               exclude_labels=lab[sel])
             a = np.zeros(len(lab), bool)
             a[sel] = h2.t <= hits.t[sel] * (1 + TIE_REL)
             amb[ok] = a

@@ -1,0 +1,187 @@
+"""Datasets: files and manifest, resume after corruption or a killed run, process pool and Dask
+(LocalCluster) outputs byte-identical to an in-process run, the ``catadioptric render`` command."""
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import cv2
+import numpy as np
+import pytest
+
+from catadioptric.cli import main
+from catadioptric.render.common import decode_labels_png
+from catadioptric.render.dataset import FILES, render_dataset, view_status
+from catadioptric.render.testscene import street_scene, street_views
+from catadioptric.render.tracer import trace_labels
+from catadioptric.rigspec import load_rig
+
+RIG = "hyperboloid_9pct"
+W, H = 96, 72
+
+
+def _setup():
+    return street_scene(0), street_views(RIG), load_rig(RIG, width=W, height=H)
+
+
+def _differ(a, b):
+    """Names of the files that differ between two dataset folders (empty: byte-identical)."""
+    fa, fb = _files(a), _files(b)
+    return sorted(k for k in set(fa) | set(fb) if fa.get(k) != fb.get(k))
+
+
+def _files(root):
+    """Every file of a dataset folder (relative path -> bytes), the manifest without its run record."""
+    out = {}
+    for d, _, names in os.walk(root):
+        for n in names:
+            p = os.path.join(d, n)
+            rel = os.path.relpath(p, root)
+            with open(p, "rb") as f:
+                data = f.read()
+            if rel == "manifest.json":
+                m = json.loads(data)
+                m.pop("run")
+                data = json.dumps(m, sort_keys=True).encode()
+            out[rel] = data
+    return out
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """The three views rendered in this process with Mitsuba."""
+    scene, views, cam = _setup()
+    out = str(tmp_path_factory.mktemp("ref") / "ds")
+    m = render_dataset(scene, views, cam, out, renderer="mitsuba", quality="draft", progress=False)
+    return out, m
+
+
+def test_files_manifest_and_labels(reference):
+    out, m = reference
+    scene, views, cam = _setup()
+    assert m["format"] == "catadioptric-dataset/1" and [v["name"] for v in m["views"]] == [n for n, _ in views]
+    for key in ("python", "numpy", "mitsuba", "povray", "opencv", "catadioptric"):
+        assert m["versions"][key], key
+    assert m["versions"]["mitsuba_variant"] == "llvm_ad_rgb"
+    assert m["scene"]["seed"] == 0 and m["scene"]["spec"]["generator"].endswith("street_scene")
+    assert m["rig"]["camera"] == cam.to_dict() and len(m["commit"] or "") in (0, 40)
+    assert m["run"]["rendered"] == ["view_00", "view_01", "view_02"] and m["run"]["skipped"] == []
+    assert m["label_agreement"]["differing_pixels"] == 0
+    for (name, pose), entry in zip(views, m["views"]):
+        folder = os.path.join(out, name)
+        assert sorted(os.listdir(folder)) == sorted(FILES + ("done.json",))
+        assert view_status(folder, entry["fingerprint"]) == "done"
+        lab = decode_labels_png(cv2.imread(os.path.join(folder, "labels.png"), cv2.IMREAD_UNCHANGED))
+        assert np.array_equal(lab, trace_labels(scene, cam, pose))
+        beauty = cv2.imread(os.path.join(folder, "beauty.png"), cv2.IMREAD_UNCHANGED)
+        assert beauty.shape == (H, W, 3) and beauty.dtype == np.uint8
+        with open(os.path.join(folder, "groundtruth.json")) as f:
+            gt = json.loads(f.read(), parse_constant=lambda c: pytest.fail(f"non-JSON constant {c}"))
+        assert gt["view"] == name and gt["pose"] == pose.to_dict() and gt["renderer"]["variant"] == "llvm_ad_rgb"
+        with np.load(os.path.join(folder, "groundtruth.npz")) as z:
+            assert z["label_ambiguous"].shape == (H, W) and len(z["line_uv"]) == z["line_curve_offsets"][-1]
+
+
+def test_rerun_skips_and_resume_redoes_only_broken_views(reference, tmp_path):
+    ref, _ = reference
+    scene, views, cam = _setup()
+    out = str(tmp_path / "ds")
+    shutil.copytree(ref, out)
+    stamp = {n: os.stat(os.path.join(out, n, "beauty.png")).st_mtime_ns for n, _ in views}
+    m = render_dataset(scene, views, cam, out, renderer="mitsuba", quality="draft", progress=False)
+    assert m["run"]["rendered"] == [] and m["run"]["skipped"] == ["view_00", "view_01", "view_02"]
+    # view_01: a file corrupted; view_02: killed before its marker (a partial temporary file left over)
+    with open(os.path.join(out, "view_01", "beauty.png"), "ab") as f:
+        f.write(b"\0")
+    os.unlink(os.path.join(out, "view_02", "done.json"))
+    with open(os.path.join(out, "view_02", ".preview.png.abc123.tmp"), "wb") as f:
+        f.write(b"partial")
+    m = render_dataset(scene, views, cam, out, renderer="mitsuba", quality="draft", progress=False)
+    assert m["run"]["status_before"] == {"view_00": "done", "view_01": "broken", "view_02": "broken"}
+    assert m["run"]["rendered"] == ["view_01", "view_02"] and m["run"]["skipped"] == ["view_00"]
+    assert os.stat(os.path.join(out, "view_00", "beauty.png")).st_mtime_ns == stamp["view_00"]
+    assert _differ(out, ref) == []  # byte-identical to the first run
+    # other parameters: every view is stale and redone
+    m = render_dataset(scene, views[:1], cam, out, renderer="mitsuba", quality="standard", progress=False)
+    assert m["run"]["status_before"] == {"view_00": "stale"} and m["run"]["rendered"] == ["view_00"]
+
+
+def test_killed_run_resumes(tmp_path):
+    out = str(tmp_path / "ds")
+    args = ["render", "builtin:test_street", "--renderer", "povray", "--rig", RIG, "--resolution", f"{W}x{H}",
+            "--quality", "draft", "--out", out, "--no-progress"]
+    code = f"import sys; from catadioptric.cli import main; sys.exit(main({args!r}))"
+    p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    marker = os.path.join(out, "view_00", "done.json")
+    t0 = time.time()
+    while not os.path.exists(marker) and p.poll() is None and time.time() - t0 < 120:
+        time.sleep(0.02)
+    p.send_signal(signal.SIGKILL)
+    p.wait()
+    assert os.path.exists(marker), p.stderr.read().decode()[-2000:]
+    assert main(args) == 0
+    with open(os.path.join(out, "manifest.json")) as f:
+        m = json.load(f)
+    assert "view_00" in m["run"]["skipped"] and "view_02" in m["run"]["rendered"]
+    for v in m["views"]:
+        assert view_status(os.path.join(out, v["name"]), v["fingerprint"]) == "done"
+    assert m["label_agreement"]["differing_pixels"] == 0
+
+
+def test_process_pool_output_equals_in_process(reference, tmp_path):
+    ref, _ = reference
+    scene, views, cam = _setup()
+    out = str(tmp_path / "ds")
+    m = render_dataset(scene, views, cam, out, renderer="mitsuba", quality="draft", workers=2, progress=False)
+    assert m["run"]["workers"] == 2 and len(m["run"]["rendered"]) == 3
+    assert _differ(out, ref) == []
+
+
+def test_dask_local_cluster_output_equals_local(reference, tmp_path):
+    from dask.distributed import LocalCluster
+
+    ref, _ = reference
+    scene, views, cam = _setup()
+    out = str(tmp_path / "ds")
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        m = render_dataset(scene, views, cam, out, renderer="mitsuba", quality="draft",
+                           scheduler=cluster.scheduler_address, progress=False)
+    assert m["run"]["scheduler"] == cluster.scheduler_address and len(m["run"]["rendered"]) == 3
+    assert _differ(out, ref) == []
+
+
+def test_command_on_a_scene_spec(tmp_path, capsys):
+    out = str(tmp_path / "ds")
+    assert main(["render", "tiny_street", "--out", out, "--resolution", "tiny", "--views", "A", "--quality", "draft",
+                 "--no-progress"]) == 0
+    assert "1 views (1 rendered, 0 already done)" in capsys.readouterr().out
+    with open(os.path.join(out, "manifest.json")) as f:
+        m = json.load(f)
+    assert m["scene"]["name"] == "tiny_street" and m["rig"]["name"] == "hyperboloid"
+    assert m["rig"]["camera"]["pinhole"]["width"] == 160 and [v["name"] for v in m["views"]] == ["A"]
+
+
+def test_command_errors(tmp_path, capsys):
+    out = str(tmp_path / "ds")
+    assert main(["render", "builtin:test_street", "--out", out, "--views", "view_00,nope"]) == 2
+    assert "catadioptric: error: --views: expected names among ['view_00', 'view_01', 'view_02'], got unknown " \
+           "['nope']" in capsys.readouterr().err
+    assert main(["render", "builtin:test_street", "--out", out, "--quality", "ultra"]) == 2
+    assert "quality: expected one of ['draft', 'high', 'standard'] or a .toml file, got 'ultra'" in \
+           capsys.readouterr().err
+    assert main(["render", "no_such_scene", "--out", out]) == 2
+    assert "spec: expected a scene spec file or one of" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["render", "builtin:test_street", "--out", out, "--workers", "0"])
+    assert "--workers: expected a positive integer, got '0'" in capsys.readouterr().err
+    scene, views, cam = _setup()
+    with pytest.raises(ValueError, match=r"views\[0\]: expected a view name of letters, digits, '_', '.', '-' "
+                                         r"\(a folder name\), got '../x'"):
+        render_dataset(scene, [("../x", views[0][1])], cam, out)
+    with pytest.raises(ValueError, match=r"views\[1\]: the view name 'a' is used twice"):
+        render_dataset(scene, [("a", views[0][1]), ("a", views[1][1])], cam, out)
+    with pytest.raises(ValueError, match=r"renderer: expected one of \['mitsuba', 'povray'\], got 'blender'"):
+        render_dataset(scene, views, cam, out, renderer="blender")
