@@ -6,8 +6,8 @@ import json
 import numpy as np
 import pytest
 
-from catadioptric.render.groundtruth import (ground_truth, groundtruth_json, line_curves, preview_image, read_npz,
-                                             write_npz)
+from catadioptric.render.groundtruth import (ground_truth, groundtruth_json, line_curves, line_curves_sampled,
+                                             preview_image, read_npz, write_npz)
 from catadioptric.render.mitsuba import render_mitsuba
 from catadioptric.render.povray import render_povray
 from catadioptric.render.testscene import street_scene, street_views
@@ -48,6 +48,22 @@ def test_line_vertices_are_exact_projections(view):
     assert miss.max() < 1e-9
     assert np.abs(rays.origins - a["line_mirror_points"]).max() < 1e-9 * cam.mirror.scale
     assert np.array_equal(a["line_in_image"], cam.pinhole.in_image(a["line_uv"]))
+
+
+def test_core_segment_images_agree_with_independent_sampling(view):
+    # the ground truth uses CatadioptricCamera.segment_image; our bisection sampler finds the same pieces
+    rig, scene, cam, pose, tr, gt = view
+    seg = pose.to_mirror(np.asarray(scene.segments))
+    mine = line_curves_sampled(cam, seg[:, 0], seg[:, 1])
+    assert [c.segment for c in mine] == [c.segment for c in gt.curves]
+    for a, b in zip(mine, gt.curves):
+        assert abs(a.t[0] - b.t[0]) < 1e-6 and abs(a.t[-1] - b.t[-1]) < 1e-6
+        # the sampler's vertices lie on the core's polyline (within the chord error of 1-px steps)
+        q0, q1 = b.uv[:-1], b.uv[1:]
+        e = q1 - q0
+        w = np.clip(np.einsum("pqk,qk->pq", a.uv[:, None] - q0[None], e) / np.maximum((e * e).sum(1), 1e-300), 0, 1)
+        d = np.linalg.norm(a.uv[:, None] - (q0[None] + w[..., None] * e[None]), axis=-1).min(axis=1)
+        assert d.max() < 0.02, (a.segment, d.max())
 
 
 def test_line_curves_are_dense_polylines(view):
@@ -145,7 +161,8 @@ def test_files_are_strict_json_deterministic_npz_and_a_preview(view):
 def test_segment_outside_the_view_has_no_image():
     cam = load_rig("hyperboloid", width=W, height=H)
     # straight up the axis above the mirror: no reflected ray goes there
-    assert line_curves(cam, np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 5.0]])) == []
-    # straight down the axis below the camera: seen through the middle of the mirror
-    [c] = line_curves(cam, np.array([[0.0, 0.0, -5.0]]), np.array([[0.0, 0.0, -1.0]]))
-    assert c.in_image.all() and np.linalg.norm(np.diff(c.uv, axis=0), axis=1).max() <= 1.0
+    for fn in (line_curves, line_curves_sampled):
+        assert fn(cam, np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 5.0]])) == []
+        # straight down the axis below the camera: seen through the middle of the mirror
+        [c] = fn(cam, np.array([[0.0, 0.0, -5.0]]), np.array([[0.0, 0.0, -1.0]]))
+        assert c.in_image.all() and np.linalg.norm(np.diff(c.uv, axis=0), axis=1).max() <= 1.0

@@ -1,22 +1,18 @@
 """Ground truth of one view, computed by our float64 code (never read back from a renderer).
 
 * the label image (:func:`catadioptric.render.tracer.trace_rays`);
-* the image of every line segment: polylines of exact forward projections
-  (:meth:`CatadioptricCamera.project`) sampled along the segment and refined until
-  consecutive vertices are at most ``max_step_px`` apart, each vertex with its
-  parameter ``t`` on the segment, its mirror point and two flags: ``in_image`` and
-  ``visible`` (the reflected ray from the mirror point reaches the segment without
-  another scene object in the way, traced in float64);
+* the image of every line segment: the exact image pieces of
+  :meth:`CatadioptricCamera.segment_image` (every vertex an exact forward projection,
+  neighbours at most ``max_step_px`` apart), each vertex with its parameter ``t`` on the
+  segment, its mirror point and two flags: ``in_image`` and ``visible`` (the reflected
+  ray from the mirror point reaches the segment without another scene object in the way,
+  traced in float64). :func:`line_curves_sampled` is an independent implementation (exact
+  projections of samples refined by bisection) that the tests compare with it;
 * each family's vanishing points, of ``+s`` and of ``-s``, with their visibility
   (:meth:`CatadioptricCamera.vanishing_points`, exact);
 * the vanishing curve of the ground plane (the horizontal plane of W,
   :meth:`CatadioptricCamera.vanishing_curve`);
 * a preview PNG drawing all of these over the beauty image.
-
-Upgrade note: the line images are sampled exact projections. When the geometry core
-gains ``cam.line_image`` (exact image curves of 3-D lines), :func:`line_curves` is the
-one place to switch; its output format (polylines with ``t``, ``uv``, mirror points)
-stays the same.
 """
 from __future__ import annotations
 
@@ -29,7 +25,8 @@ import numpy as np
 from .._checks import CatadioptricError
 from .tracer import TracedRays, scene_bvh, trace_rays
 
-__all__ = ["GroundTruth", "ground_truth", "line_curves", "write_npz", "read_npz", "preview_image", "FORMAT"]
+__all__ = ["GroundTruth", "ground_truth", "line_curves", "line_curves_sampled", "write_npz", "read_npz",
+           "preview_image", "groundtruth_json", "FORMAT"]
 
 FORMAT = "catadioptric-groundtruth/1"
 
@@ -63,9 +60,30 @@ def _far_apart(uv1, v1, uv2, v2, max_step_px):
     return np.any(v1 & (d.min(axis=2) > max_step_px), axis=1) | np.any(v2 & (d.min(axis=1) > max_step_px), axis=1)
 
 
-def line_curves(cam, a_M, b_M, *, max_step_px: float = 1.0, n_start: int = 33, max_rounds: int = 40,
-                min_dt: float = 1e-9) -> list[Curve]:
-    """Exact image polylines of the segments ``a_M (L, 3)`` -> ``b_M (L, 3)`` (mirror frame).
+def line_curves(cam, a_M, b_M, *, max_step_px: float = 1.0) -> list[Curve]:
+    """Exact image polylines of the segments ``a_M (L, 3)`` -> ``b_M (L, 3)`` (mirror frame), from
+    the geometry core's :meth:`CatadioptricCamera.segment_image`."""
+    a = np.asarray(a_M, dtype=float).reshape(-1, 3)
+    b = np.asarray(b_M, dtype=float).reshape(-1, 3)
+    if len(a) == 0:
+        return []
+    L = np.linalg.norm(b - a, axis=1)
+    out = []
+    for i, img in enumerate(cam.segment_image(a, b, max_step_px=max_step_px)):
+        for p in img.pieces:
+            t = np.clip(np.asarray(p.params, dtype=float) / L[i], 0.0, 1.0)
+            uv, r = np.asarray(p.uv, float), np.asarray(p.mirror_points, float)
+            if len(t) > 1 and t[0] > t[-1]:  # vertices in increasing t
+                t, uv, r = t[::-1], uv[::-1], r[::-1]
+            out.append(Curve(i, t, uv, r, cam.pinhole.in_image(uv)))
+    out.sort(key=lambda c: (c.segment, c.t[0]))
+    return out
+
+
+def line_curves_sampled(cam, a_M, b_M, *, max_step_px: float = 1.0, n_start: int = 33, max_rounds: int = 40,
+                        min_dt: float = 1e-9) -> list[Curve]:
+    """Exact image polylines of the segments ``a_M (L, 3)`` -> ``b_M (L, 3)`` (mirror frame),
+    computed independently of :meth:`CatadioptricCamera.segment_image`.
 
     Every vertex is an exact forward projection; samples are refined (bisection, all
     segments batched, only the intervals still too coarse) where neighbouring images are
