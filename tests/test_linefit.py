@@ -1,0 +1,377 @@
+"""3-D lines from one non-central image, families of parallel lines, vanishing points from curves.
+
+Synthetic data: points of a 3-D segment projected exactly (``cam.project``), kept where
+valid and on the image, plus Gaussian pixel noise. Single-line reconstruction from one
+image is badly conditioned on these rigs (docs/linefit.md): the noise levels of the
+single-line statistical tests are scaled per rig (``UNIT``) so that the estimator is in
+its linear regime; family and vanishing-point tests use 1 px.
+"""
+from functools import lru_cache
+
+import numpy as np
+import pytest
+
+import catadioptric as cd
+from catadioptric.linefit import (fit_interpretation_plane, fit_line, fit_parallel_lines, image_distances,
+                                  line_candidates, project_with_jacobian, segment_pixels,
+                                  vanishing_points_from_curves)
+from catadioptric.rigs import preset
+
+# a well-conditioned segment per rig (close to the mirror, long) and the pixel noise that puts the
+# fitted direction's standard error near 0.4 degrees (the rigs differ by two orders of magnitude)
+SEGMENTS = {
+    "sphere": ([0.223, -0.192, 0.186], [-0.313, 0.025, -0.152]),
+    "hyperboloid_9pct": ([0.381, -0.37, -0.096], [-0.476, 0.125, 0.22]),
+    "ellipsoid": ([-0.251, -0.54, -0.038], [0.486, 0.343, -0.046]),
+}
+UNIT = {"sphere": 0.5, "hyperboloid_9pct": 0.1, "ellipsoid": 0.03}
+RIGS = list(SEGMENTS)
+
+
+@lru_cache(maxsize=None)
+def _cam(name):
+    return preset(name)
+
+
+@lru_cache(maxsize=None)
+def _clean(name, n=100):
+    a, b = (np.array(v) for v in SEGMENTS[name])
+    uv, pts = segment_pixels(_cam(name), a, b, n)
+    return uv, pts, a, b
+
+
+def _angle(s, t):
+    return float(np.arccos(np.clip(abs(s @ t) / np.linalg.norm(s) / np.linalg.norm(t), -1.0, 1.0)))
+
+
+def _line_distance(point, direction, x):
+    """Distance from point x to the line."""
+    return float(np.linalg.norm(np.cross(x - point, direction)))
+
+
+# ----------------------------------------------------------------------------- building blocks
+@pytest.mark.parametrize("name", ["hyperboloid_9pct", "sphere", "ellipsoid", "paraboloid"])
+def test_projection_jacobian_matches_finite_differences(name):
+    cam = preset(name)
+    rays = cam.backproject(cam.pinhole.pixel_grid(60).reshape(-1, 2))
+    rng = np.random.default_rng(1)
+    P = (rays.origins + rng.uniform(0.1, 2.0, len(rays.valid))[:, None] * rays.directions)[rays.valid]
+    uv, G, vis = project_with_jacobian(cam, P, cam.pixels_of_mirror_points(rays.origins[rays.valid]))
+    assert vis.all()
+    h = 1e-6
+    for k in range(3):
+        e = np.zeros(3)
+        e[k] = h
+        fd = (project_with_jacobian(cam, P + e, uv)[0] - project_with_jacobian(cam, P - e, uv)[0]) / (2 * h)
+        assert np.max(np.linalg.norm(fd - G[:, :, k], axis=-1) / np.linalg.norm(G, axis=(1, 2))) < 1e-6
+
+
+@pytest.mark.parametrize("name", RIGS + ["sphere_axial"])
+def test_linear_candidates_hold_the_line_and_the_axis_of_axial_rigs(name):
+    cam = _cam(name) if name in SEGMENTS else preset(name)
+    a, b = (np.array(v) for v in SEGMENTS.get(name, SEGMENTS["sphere"]))
+    uv, pts = segment_pixels(cam, a, b, 30)
+    L = line_candidates(cam, uv)
+    s = (b - a) / np.linalg.norm(b - a)
+    true = np.concatenate([s, np.cross(a, s)])
+    dist = np.min(np.minimum(np.linalg.norm(L - true, axis=1), np.linalg.norm(L + true, axis=1)))
+    assert dist < 1e-8
+    # every ray of a sphere rig meets the line through the camera and the sphere's centre (the
+    # mirror axis when the camera is on it): a second exact solution of the linear system
+    if cam.mirror.kind == "sphere":
+        centre = np.array([0.0, 0.0, cam.mirror.center_z])
+        t = cam.center - centre
+        t /= np.linalg.norm(t)
+        axis = np.concatenate([t, np.cross(centre, t)])
+        d_axis = np.min(np.minimum(np.linalg.norm(L - axis, axis=1), np.linalg.norm(L + axis, axis=1)))
+        assert d_axis < 1e-6
+
+
+def test_image_distances_measure_pixel_offsets_from_the_curve():
+    cam = _cam("sphere")
+    uv, pts, a, b = _clean("sphere", 40)
+    s = (b - a) / np.linalg.norm(b - a)
+    d0, lam = image_distances(cam, a, s, uv)
+    assert np.max(d0[2:-2]) < 1e-6
+    assert np.allclose(a + lam[:, None] * s, pts, atol=1e-6)
+    # shift interior pixels by 2 px across the curve's local tangent
+    tang = np.gradient(uv, axis=0)
+    nrm = np.stack([-tang[:, 1], tang[:, 0]], axis=1)
+    nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+    d2, _ = image_distances(cam, a, s, uv + 2.0 * nrm)
+    assert np.allclose(d2[3:-3], 2.0, atol=0.05)
+
+
+# ----------------------------------------------------------------------------- single lines
+@pytest.mark.parametrize("name", RIGS + ["sphere_axial"])
+def test_exact_pixels_give_the_exact_line(name):
+    cam = _cam(name) if name in SEGMENTS else preset(name)
+    a, b = (np.array(v) for v in SEGMENTS.get(name, SEGMENTS["sphere"]))
+    uv, pts = segment_pixels(cam, a, b, 60)
+    f = fit_line(cam, uv)
+    s = (b - a) / np.linalg.norm(b - a)
+    assert f.direction @ s > 0  # oriented from the first pixel's point to the last one's
+    assert _angle(f.direction, s) < 1e-6
+    assert _line_distance(f.point, f.direction, a) < 1e-6
+    assert np.linalg.norm(f.moment - np.cross(a, s)) < 1e-6
+    assert f.inliers.all() and f.rms < 1e-6
+    assert np.allclose(f.points, pts, atol=1e-6)
+    assert abs(f.point @ f.direction) < 1e-12  # the point of the line nearest the origin
+
+
+def _single_errors(name, sigma, seeds, **kw):
+    uv, pts, a, b = _clean(name)
+    s = (b - a) / np.linalg.norm(b - a)
+    mid = 0.5 * (a + b)
+    ang, pos, pred = [], [], []
+    for seed in seeds:
+        noisy = uv + np.random.default_rng(seed).normal(0.0, sigma, uv.shape)
+        f = fit_line(_cam(name), noisy, **kw)
+        ang.append(_angle(f.direction, s))
+        pos.append(_line_distance(f.point, f.direction, mid))
+        pred.append(f.direction_std)
+    return np.array(ang), np.array(pos), np.array(pred)
+
+
+@pytest.mark.parametrize("name", RIGS)
+def test_errors_grow_linearly_with_pixel_noise(name):
+    """sigma = UNIT x (0.25, 0.5, 1, 2): median direction and position errors over 6 seeds."""
+    levels = [0.25, 0.5, 1.0, 2.0]
+    med_a, med_p = [], []
+    for k in levels:
+        ang, pos, pred = _single_errors(name, k * UNIT[name], range(6), ransac=False, loss="linear")
+        med_a.append(np.median(ang))
+        med_p.append(np.median(pos))
+    med_a, med_p = np.array(med_a), np.array(med_p)
+    assert np.all(np.diff(med_a) > 0) and np.all(np.diff(med_p) > 0)
+    assert 2.0 < med_a[3] / med_a[1] < 8.0
+    assert 2.0 < med_p[3] / med_p[1] < 8.0
+    assert med_a[2] < np.radians(1.5)  # the line is recovered at the unit noise
+
+
+def test_direction_covariance_matches_monte_carlo():
+    name = "hyperboloid_9pct"
+    uv, pts, a, b = _clean(name, 60)
+    s = (b - a) / np.linalg.norm(b - a)
+    m_true = np.cross(a, s)
+    rng = np.random.default_rng(11)
+    ds, dm, cov_s, cov_m = [], [], [], []
+    for _ in range(200):
+        f = fit_line(_cam(name), uv + rng.normal(0.0, UNIT[name], uv.shape), ransac=False, loss="linear")
+        ds.append(f.direction - s)
+        dm.append(f.moment - m_true)
+        cov_s.append(f.direction_cov)
+        cov_m.append(f.moment_cov)
+    mc_s = np.trace(np.cov(np.array(ds).T))
+    mc_m = np.trace(np.cov(np.array(dm).T))
+    assert abs(np.trace(np.mean(cov_s, axis=0)) / mc_s - 1) < 0.3
+    assert abs(np.trace(np.mean(cov_m, axis=0)) / mc_m - 1) < 0.3
+    # the direction covariance is tangent to the unit sphere
+    assert abs(s @ np.mean(cov_s, axis=0) @ s) < 1e-3 * mc_s
+
+
+def test_given_pixel_sigma_scales_the_covariance():
+    uv, pts, a, b = _clean("sphere")
+    noisy = uv + np.random.default_rng(2).normal(0.0, 0.3, uv.shape)
+    f1 = fit_line(_cam("sphere"), noisy, ransac=False, loss="linear", pixel_sigma=1.0)
+    f2 = fit_line(_cam("sphere"), noisy, ransac=False, loss="linear", pixel_sigma=2.0)
+    assert f1.sigma == 1.0
+    assert np.allclose(f2.direction_cov, 4.0 * f1.direction_cov)
+    f3 = fit_line(_cam("sphere"), noisy, ransac=False, loss="linear")
+    assert 0.2 < f3.sigma < 0.4  # estimated from the residuals
+
+
+def _with_outliers(name, sigma, frac, seed):
+    """Replace a fraction of the pixels by strays spread over the part of the image that sees the world."""
+    uv, pts, a, b = _clean(name)
+    cam = _cam(name)
+    rng = np.random.default_rng(seed)
+    noisy = uv + rng.normal(0.0, sigma, uv.shape)
+    bad = rng.random(len(uv)) < frac
+    cand = rng.uniform([0, 0], [cam.pinhole.width - 1, cam.pinhole.height - 1], (20 * len(uv), 2))
+    cand = cand[cam.backproject(cand).valid]
+    noisy[bad] = cand[: bad.sum()]
+    return noisy, bad, a, b
+
+
+def test_twenty_percent_outliers_do_not_break_the_fit():
+    name = "sphere"
+    sigma = 0.5 * UNIT[name]
+    for seed in (5, 6):
+        noisy, bad, a, b = _with_outliers(name, sigma, 0.2, seed)
+        assert 0.12 < bad.mean() < 0.3
+        s = (b - a) / np.linalg.norm(b - a)
+        f = fit_line(_cam(name), noisy, f_scale=sigma, seed=seed)  # RANSAC + soft_l1 + polish on the inliers
+        clean = fit_line(_cam(name), noisy[~bad], f_scale=sigma)
+        assert np.mean(f.inliers[~bad]) > 0.95
+        assert np.mean(f.inliers[bad]) < 0.05
+        assert _angle(f.direction, s) < max(2 * _angle(clean.direction, s), np.radians(0.5))
+        assert f.rms < 2 * sigma
+        # plain least squares over every pixel is thrown off (the test can fail)
+        naive = fit_line(_cam(name), noisy, ransac=False, loss="linear", inlier_threshold=1e6)
+        assert _angle(naive.direction, s) > 5 * max(_angle(f.direction, s), np.radians(0.1))
+
+
+def test_finite_difference_jacobian_gives_the_same_fit():
+    uv, pts, a, b = _clean("ellipsoid", 40)
+    noisy = uv + np.random.default_rng(4).normal(0.0, UNIT["ellipsoid"], uv.shape)
+    f1 = fit_line(_cam("ellipsoid"), noisy, ransac=False, loss="linear")
+    f2 = fit_line(_cam("ellipsoid"), noisy, ransac=False, loss="linear", jac="2-point")
+    assert _angle(f1.direction, f2.direction) < 0.05 * f1.direction_std
+    assert abs(f1.rms - f2.rms) < 1e-6 * f1.rms
+
+
+# ----------------------------------------------------------------------------- families
+def _family(cam, vp_pixel, line_pixels, depths, n=50, phi=(-0.6, 1.45)):
+    """Parallel lines along the direction whose +s vanishing point is ``vp_pixel``, each through
+    the point at ``depth`` on the ray of one of ``line_pixels``; points spread evenly in the
+    angle ``phi`` (``q + tan(phi) s``) so that the curves run into the vanishing point."""
+    s = cam.backproject(np.array(vp_pixel, dtype=float)).directions
+    rays = cam.backproject(np.array(line_pixels, dtype=float))
+    t = np.tan(np.linspace(phi[0], phi[1], n))
+    sets, lines = [], []
+    for o, d, depth in zip(rays.origins, rays.directions, depths):
+        q = o + depth * d
+        pr = cam.project(q + t[:, None] * s)
+        ok = pr.valid[:, 0] & pr.in_image[:, 0] & (pr.valid.sum(axis=1) == 1)
+        if ok.sum() >= 15:
+            sets.append(pr.uv[ok, 0])
+            lines.append(q)
+    return s, sets, lines
+
+
+FAMILIES = {
+    "hyperboloid_9pct": ((330, 60), [(120, 240), (520, 240), (320, 420), (200, 380)], [0.4, 0.5, 0.6, 0.45]),
+    "sphere": ((250, 70), [(150, 250), (470, 230), (330, 380), (420, 120)], [0.3, 0.4, 0.35, 0.5]),
+    "ellipsoid": ((150, 200), [(320, 120), (460, 330), (300, 400), (420, 200)], [0.4, 0.5, 0.6, 0.45]),
+}
+
+
+@lru_cache(maxsize=None)
+def _family_scene(name):
+    return _family(_cam(name), *FAMILIES[name])
+
+
+@pytest.mark.parametrize("name", RIGS)
+def test_family_exact_at_zero_noise(name):
+    s, sets, qs = _family_scene(name)
+    assert len(sets) >= 3
+    fam = fit_parallel_lines(_cam(name), sets)
+    assert _angle(fam.direction, s) < 1e-6
+    for q, p in zip(qs, fam.points):
+        assert _line_distance(p, fam.direction, q) < 1e-6
+    assert fam.n_lines == len(sets) and fam.rms < 1e-6
+
+
+def test_family_fit_beats_single_fits_on_the_direction():
+    name = "hyperboloid_9pct"
+    cam = _cam(name)
+    s, sets, _ = _family_scene(name)
+    fam_err, single_err = [], []
+    for seed in range(3):
+        rng = np.random.default_rng(seed)
+        noisy = [u + rng.normal(0.0, 1.0, u.shape) for u in sets]
+        fam = fit_parallel_lines(cam, noisy)
+        fam_err.append(_angle(fam.direction, s))
+        single_err += [_angle(fit_line(cam, u).direction, s) for u in noisy[:2]]
+        assert fam.direction_std < np.radians(1.0)
+    assert np.median(fam_err) < np.radians(0.5)
+    assert np.median(fam_err) < 0.2 * np.median(single_err)
+
+
+@pytest.mark.parametrize("name", RIGS)
+def test_vanishing_points_from_curves_match_the_true_ones(name):
+    cam = _cam(name)
+    s, sets, _ = _family_scene(name)
+    rng = np.random.default_rng(21)
+    noisy = [u + rng.normal(0.0, 1.0, u.shape) for u in sets]
+    res = vanishing_points_from_curves(cam, noisy)
+    assert res.direction @ s > 0  # oriented toward the far ends of the curves
+    assert _angle(res.direction, s) < np.radians(1.0)
+    true = cam.vanishing_points(s, which="both")
+    obs = res.observable()
+    assert len(obs) >= 1
+    vp_pixel = np.array(FAMILIES[name][0], dtype=float)
+    assert np.min(np.linalg.norm(res.uv[obs][res.sign[obs] > 0] - vp_pixel, axis=-1)) < 3.0
+    for k in obs:
+        same = (true.sign == res.sign[k]) & true.visible
+        err = np.min(np.linalg.norm(true.uv[same] - res.uv[k], axis=-1))
+        assert err < 3.0
+        sd = np.sqrt(np.trace(res.uv_cov[k]))
+        assert 0 < sd < 5.0 and err < 4 * sd + 0.1
+        assert np.isfinite(res.spread_max[k]) and res.spread_rms[k] <= res.spread_max[k]
+    assert res.individual_uv.shape == (len(sets),) + res.uv.shape
+    assert len(res.individual) == len(sets)
+
+
+# ----------------------------------------------------------------------------- central cameras
+def test_central_camera_gives_only_the_interpretation_plane():
+    cam = preset("hyperboloid_central")
+    V = cam.viewpoint
+    rays = cam.backproject(np.array([[150.0, 240.0], [470.0, 250.0]]))
+    s = cam.backproject(np.array([330.0, 60.0])).directions
+    normals, covs = [], []
+    rng = np.random.default_rng(3)
+    for d in rays.directions:
+        q = V + 0.5 * d
+        uv, _ = segment_pixels(cam, q - 0.3 * s, q + 3.0 * s, 50)
+        with pytest.raises(cd.CatadioptricError, match=r"cam: the camera is central .* use fit_interpretation_plane"):
+            fit_line(cam, uv)
+        n_true = np.cross(q - V, s)
+        n_true /= np.linalg.norm(n_true)
+        exact = fit_interpretation_plane(cam, uv)
+        assert _angle(exact.normal, n_true) < 1e-9 and np.allclose(exact.viewpoint, V)
+        p = fit_interpretation_plane(cam, uv + rng.normal(0.0, 1.0, uv.shape))
+        assert _angle(p.normal, n_true) < 5 * np.sqrt(np.trace(p.normal_cov))
+        normals.append(p.normal)
+        covs.append(p.normal_cov)
+    with pytest.raises(cd.CatadioptricError, match=r"cam: the camera is central"):
+        fit_parallel_lines(cam, [uv, uv])
+    # two parallel lines: their direction is normal to both planes
+    assert _angle(np.cross(*normals), s) < np.radians(1.0)
+    with pytest.raises(cd.CatadioptricError, match=r"cam: expected a central camera"):
+        fit_interpretation_plane(_cam("sphere"), uv)
+
+
+# ----------------------------------------------------------------------------- bad input
+def test_bad_input_is_named():
+    cam = _cam("sphere")
+    uv = _clean("sphere", 30)[0]
+    E = cd.CatadioptricError
+    with pytest.raises(E, match=r"uv: expected an array of shape \(\.\.\., 2\), got an array of shape \(30, 3\)"):
+        fit_line(cam, np.zeros((30, 3)))
+    with pytest.raises(E, match=r"uv: expected an array of shape \(M, 2\), got an array of shape \(2, 30, 2\)"):
+        fit_line(cam, np.stack([uv, uv]))
+    with pytest.raises(E, match=r"uv: expected at least 5 pixels, got 4"):
+        fit_line(cam, uv[:4])
+    with pytest.raises(E, match=r"uv: expected finite values, got nan at index \(3, 1\)"):
+        bad = uv.copy()
+        bad[3, 1] = np.nan
+        fit_line(cam, bad)
+    with pytest.raises(E, match=r"uv: expected at least 5 pixels that see the world through the mirror, got 0"):
+        fit_line(cam, np.tile([[-0.4, -0.4]], (8, 1)))
+    with pytest.raises(E, match=r"loss: expected one of \['linear', 'soft_l1'"):
+        fit_line(cam, uv, loss="l1")
+    with pytest.raises(E, match=r"f_scale: expected a positive number, got 0.0"):
+        fit_line(cam, uv, f_scale=0)
+    with pytest.raises(E, match=r"pixel_sigma: expected a positive number"):
+        fit_line(cam, uv, pixel_sigma=-1)
+    with pytest.raises(E, match=r"seed: expected an int, None or a numpy Generator, got str"):
+        fit_line(cam, uv, seed="x")
+    with pytest.raises(E, match=r"jac: expected 'analytic', '2-point' or '3-point', got 'cs'"):
+        fit_line(cam, uv, jac="cs")
+    with pytest.raises(E, match=r"max_trials: expected a positive integer, got 0"):
+        fit_line(cam, uv, max_trials=0)
+    with pytest.raises(E, match=r"cam: expected a CatadioptricCamera, got str"):
+        fit_line("sphere", uv)
+    with pytest.raises(E, match=r"uv_sets: expected a non-empty list of \(M_i, 2\) pixel arrays, got list of length 0"):
+        fit_parallel_lines(cam, [])
+    with pytest.raises(E, match=r"uv_sets\[1\]: expected at least 5 pixels, got 2"):
+        fit_parallel_lines(cam, [uv, uv[:2]])
+    with pytest.raises(E, match=r"direction: expected a non-zero vector"):
+        image_distances(cam, [0, 0, 1.0], [0, 0, 0], uv)
+    with pytest.raises(E, match=r"n: expected a positive integer, got 0"):
+        segment_pixels(cam, [0, 0, 1.0], [1, 0, 1.0], 0)
+    with pytest.raises(E, match=r"uv: line 0 keeps fewer than 3 inlier pixels"):
+        scatter = np.random.default_rng(0).uniform(100, 500, (30, 2))
+        fit_line(cam, scatter, f_scale=0.1, inlier_threshold=0.01, ransac=False)
