@@ -11,6 +11,7 @@ SUBCOMMAND_MODULES = [
     "catadioptric.demo",
     "catadioptric.centrality",
     "catadioptric.render.cli",
+    "catadioptric.validate.cli",
 ]
 
 

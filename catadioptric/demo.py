@@ -67,8 +67,39 @@ def run_geometry_demo(out_dir: str, rig: str = "hyperboloid_9pct") -> dict:
     return {"round_trip_max_px": float(err.max()), "png": path}
 
 
+def run_main_job(out_dir: str, *, renderer: str = "mitsuba", scene: str = "urban_street", noise: float = 2.0,
+                 resolution: str | None = None, quality: str = "standard") -> int:
+    """The main job: render the paper's relative-pose setting (two views of an urban street seen
+    by a non-central catadioptric camera) and validate the relative rotation from vanishing points."""
+    from .cli import main
+
+    data = os.path.join(out_dir, f"{scene}_{renderer}")
+    argv = ["render", scene, "--renderer", renderer, "--out", data, "--quality", quality]
+    if resolution:
+        argv += ["--resolution", resolution]
+    code = main(argv)
+    if code:
+        return code
+    report = os.path.join(out_dir, "relative_rotation")
+    return main(["validate", "relative-rotation", data, "--out", report, "--noise", str(noise)]) or 0
+
+
 def register(sub) -> None:
-    d = sub.add_parser("demo", help="geometry demo: back-projection, forward projection, images of 3D lines")
+    d = sub.add_parser("demo", help="the main job: render an image pair and validate the relative rotation "
+                                    "(--geometry: the geometry demo only)")
     d.add_argument("--out", default="out/demo", help="output folder (default: out/demo)")
-    d.add_argument("--rig", default="hyperboloid_9pct", help="rig preset (default: hyperboloid_9pct)")
-    d.set_defaults(func=lambda args: run_geometry_demo(args.out, rig=args.rig) and 0)
+    d.add_argument("--renderer", default="mitsuba", choices=["mitsuba", "povray"], help="renderer (default mitsuba)")
+    d.add_argument("--scene", default="urban_street", help="scene spec (default urban_street)")
+    d.add_argument("--noise", type=float, default=2.0, help="pixel noise of the line pixels (default 2, as the paper)")
+    d.add_argument("--resolution", help="render resolution (name or WxH; default the rig's 640x480)")
+    d.add_argument("--geometry", action="store_true", help="run the geometry demo only (no rendering)")
+    d.add_argument("--rig", default="hyperboloid_9pct", help="rig preset of the geometry demo")
+
+    def run(args):
+        if args.geometry:
+            run_geometry_demo(args.out, rig=args.rig)
+            return 0
+        return run_main_job(args.out, renderer=args.renderer, scene=args.scene, noise=args.noise,
+                            resolution=args.resolution)
+
+    d.set_defaults(func=run)
