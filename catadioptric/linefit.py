@@ -13,18 +13,22 @@ Ramalingam, CVPR 2018, Sec. 5.4, who found the route brittle). The fit here:
    sphere rig: all rays meet the line through the camera and the sphere's centre) have
    that axis as a second exact solution; the candidate with the smaller image error
    is kept. Four pixels are the minimal set (RANSAC).
+   Near-central rigs make that system nearly rank-deficient (all rays nearly meet at
+   one point); lines in the plane through that point that best holds the rays are
+   added as candidates.
 2. **Refinement** by ``scipy.optimize.least_squares`` over the line (4 DOF: direction in
-   its tangent plane, point in the plane normal to the direction) and one depth
-   ``lambda_j`` per pixel: residual ``project(q + lambda_j s) - uv_j`` (the image branch
-   nearest the observed pixel), analytic Jacobian from Fermat's principle, sparse.
+   its tangent plane; the foot of the perpendicular from the rays' centre in inverse
+   distance coordinates) and one depth per pixel: residual ``project(q + lambda_j s) - uv_j``
+   (the image branch nearest the observed pixel), sparse analytic Jacobian from
+   Fermat's principle (or finite differences with ``jac_sparsity``).
 3. **Robustness**: RANSAC over minimal sets, a robust loss, inliers by image distance,
    then a plain least-squares polish on the inliers so that the reported covariance
    (Schur complement over the depths) describes the estimator actually used.
 
 Central cameras (every ray through one viewpoint) see a line only through its
 interpretation plane: its position and its direction within that plane are lost,
-and the fits raise :class:`CatadioptricError` (use :func:`fit_interpretation_plane`).
-See docs/linefit.md.
+and the fits raise :class:`CatadioptricError` (use :func:`fit_interpretation_plane`;
+parallel lines still give their direction and vanishing points). See docs/linefit.md.
 """
 from __future__ import annotations
 
@@ -40,6 +44,7 @@ from .cameras import CatadioptricCamera
 __all__ = [
     "LineFit", "FamilyFit", "CurveVanishingPoints", "InterpretationPlane",
     "fit_line", "fit_parallel_lines", "vanishing_points_from_curves", "fit_interpretation_plane",
+    "direction_from_planes",
     "line_candidates", "image_distances", "project_with_jacobian", "segment_pixels", "accuracy_table",
 ]
 
@@ -59,7 +64,9 @@ class LineFit:
     ``inliers`` (bool). ``rms``: root mean square image distance over the inliers.
     ``sigma``: pixel noise used for the covariances (given, or estimated from the
     inlier residuals). ``direction_cov (3, 3)`` (rank 2, tangent to the unit sphere) and
-    ``pluecker_cov (6, 6)`` of ``(s, m)``; ``dof`` = 2 inliers - inliers - 4.
+    ``pluecker_cov (6, 6)`` of ``(s, m)``; ``dof`` = inliers - 4 (two residuals and one depth
+    per pixel, four line parameters). ``n_hypotheses``: candidate lines scored; ``nfev``:
+    residual evaluations of the least-squares stages.
     The direction is oriented from the first inlier's point towards the last one's.
     """
 
@@ -99,10 +106,12 @@ class FamilyFit:
     """Parallel 3-D lines fitted jointly: one ``direction`` (unit, ``direction_cov (3, 3)``),
     per line a ``moment`` and ``point`` ``(L, 3)``; per line lists (one entry per pixel set)
     of ``depths``, ``points``, ``uv_fit``, ``distances``, ``inliers``. ``rms`` over all inliers,
-    ``rms_per_line (L,)``; ``sigma`` as in :class:`LineFit`; ``cov`` is the covariance of the
-    (2 + 2 L) line parameters (direction tangent coordinates, then each line's point
-    coordinates in the plane normal to the direction) after the Schur complement over
-    the depths. The direction is oriented as line 0's first inlier to its last one."""
+    ``rms_per_line (L,)``; ``sigma`` as in :class:`LineFit`; ``pluecker_cov (L, 6, 6)`` of each
+    line's ``(s, m)``; ``cov`` is the covariance of the (2 + 2 L) parameters of the fit (the
+    direction's tangent coordinates, then each line's angle and inverse distance about
+    the rays' centre, see ``_Problem``) after the Schur complement over the depths;
+    ``dof`` = inliers - 2 - 2 L. The direction is oriented as line 0's first inlier to its
+    last one."""
 
     direction: np.ndarray
     moments: np.ndarray
@@ -116,6 +125,7 @@ class FamilyFit:
     rms_per_line: np.ndarray
     sigma: float
     direction_cov: np.ndarray
+    pluecker_cov: np.ndarray
     cov: np.ndarray
     dof: int
     nfev: int = 0
@@ -146,6 +156,9 @@ class CurveVanishingPoints:
     there). ``spread_max (K,)`` and ``spread_rms (K,)``: max and rms pixel distance of the
     individual points from the joint one (NaN where none matched). ``uv_cov (K, 2, 2)``:
     the joint point's covariance in pixels, propagated from ``direction_cov``.
+    Central cameras: ``family`` is None, ``individual`` holds each curve's
+    :class:`InterpretationPlane` and ``individual_uv (L (L - 1) / 2, K, 2)`` the vanishing points
+    of each pair of curves (where the two fitted curves cross).
     """
 
     direction: np.ndarray
@@ -158,7 +171,7 @@ class CurveVanishingPoints:
     individual_uv: np.ndarray
     spread_max: np.ndarray
     spread_rms: np.ndarray
-    family: FamilyFit
+    family: FamilyFit | None
     individual: list
 
     def observable(self) -> np.ndarray:
@@ -200,7 +213,8 @@ def _check_camera(cam, what: str):
         raise CatadioptricError(
             f"cam: the camera is central (every ray passes through the viewpoint "
             f"{np.round(cam.viewpoint, 6).tolist()}): one image fixes only the plane through the viewpoint "
-            f"that holds the line, not {what}; use fit_interpretation_plane"
+            f"that holds the line, not {what}; use fit_interpretation_plane (and vanishing_points_from_curves "
+            f"for two or more parallel lines)"
         )
 
 
@@ -248,8 +262,10 @@ def project_with_jacobian(cam: CatadioptricCamera, points, uv_ref):
     from ``p`` to ``r``); differentiating that system in ``p`` gives ``dr/dp``, and the
     pinhole gives ``d uv / dr``.
     """
-    P = np.asarray(points, dtype=float).reshape(-1, 3)
-    ref = np.asarray(uv_ref, dtype=float).reshape(-1, 2)
+    P = as_float_array(points, "points", 3, finite=False).reshape(-1, 3)
+    ref = as_float_array(uv_ref, "uv_ref", 2).reshape(-1, 2)
+    if len(ref) != len(P):
+        raise CatadioptricError(f"uv_ref: expected one pixel per point ({len(P)}), got {len(ref)}")
     N = len(P)
     uv = np.full((N, 2), np.nan)
     G = np.full((N, 2, 3), np.nan)
@@ -296,7 +312,10 @@ def _uv_jacobian(cam: CatadioptricCamera, r, p):
     K[:, 3, :3] = g
     rhs = np.zeros((n, 4, 3))
     rhs[:, :3, :] = Pu  # d(grad F)/dp = -Pu, moved to the right-hand side
-    dr_dp = np.linalg.solve(K, rhs)[:, :3, :]
+    try:
+        dr_dp = np.linalg.solve(K, rhs)[:, :3, :]
+    except np.linalg.LinAlgError:  # a degenerate point somewhere in the batch: pseudo-inverse
+        dr_dp = (np.linalg.pinv(K) @ rhs)[:, :3, :]
     R = cam.R_cam_from_mirror
     X = a @ R.T
     Kp = cam.pinhole.K
@@ -338,15 +357,13 @@ def _ray_frame(cam, o, d) -> _RayFrame:
     return _RayFrame(o, d, x0, eps)
 
 
-def _candidates_from_rays(frame: _RayFrame, o, d, w=None):
+def _candidates_from_rays(frame: _RayFrame, o, d):
     """Candidate lines ``(s, m)`` meeting rays ``o, d (S, k, 3)`` (k >= 4); returns ``L (S, 3, 6)``
     (unit s, Pluecker exact) and ``ok (S, 3)``. Candidates: the two real roots of the
     Pluecker quadratic on the span of the two smallest right singular vectors (or its
     best real approximation), and the smallest singular vector made Pluecker."""
     o = o - frame.x0
     rows = np.concatenate([np.cross(o, d) / frame.eps, d], axis=-1)  # unknowns (eps s, m')
-    if w is not None:
-        rows = rows * w[..., None]
     rows = rows / np.maximum(np.linalg.norm(rows, axis=-1, keepdims=True), 1e-300)
     _, _, Vt = np.linalg.svd(rows, full_matrices=rows.shape[-2] < 6)
     v1, v2 = Vt[:, -1, :], Vt[:, -2, :]
@@ -428,9 +445,12 @@ def _all_candidates(cam, frame, o, d, n_angles=8):
 
 def line_candidates(cam: CatadioptricCamera, uv) -> np.ndarray:
     """Lines ``(n, 6)`` (Pluecker ``(s, m)``, unit ``s``) meeting the back-projected rays of pixels
-    ``uv (M, 2)`` (M >= 4): the linear solution of ``s . (o_j x d_j) + d_j . m = 0`` with the
-    Pluecker constraint (see the module docstring). Exact for exact pixels; with noise, a
-    starting point. Pixels that do not see the world are ignored."""
+    ``uv (M, 2)`` (M >= 4): the roots of the Pluecker constraint on the two-dimensional
+    near-null space of ``s . (o_j x d_j) + d_j . m = 0`` and the least-squares null vector
+    (see the module docstring), then the near-central candidates (lines in the plane
+    through the rays' centre that holds the rays). The true line is among them for exact
+    pixels; with noise they are starting points. Pixels that do not see the world are
+    ignored."""
     _check_camera(cam, "the line")
     uv = _check_uv(uv, "uv", 4)
     rays = cam.backproject(uv)
@@ -486,6 +506,8 @@ def image_distances(cam: CatadioptricCamera, point, direction, uv, *, iters: int
     ``point`` along ``direction`` (a local minimum over the line's points, by Gauss-Newton on
     each pixel's depth from the point nearest its ray). Returns ``(distances (M,), depths (M,))``;
     inf where the pixel does not see the world or the line has no image near it."""
+    if not isinstance(cam, CatadioptricCamera):
+        raise CatadioptricError(f"cam: expected a CatadioptricCamera, got {type(cam).__name__}")
     q = as_float_array(point, "point", 3)
     s = as_float_array(direction, "direction", 3)
     if q.shape != (3,) or s.shape != (3,):
@@ -666,12 +688,17 @@ def _canonical(s, q, lam, owner):
 
 
 def _solve_family(cam, uv_all, o, d, owner, n_lines, s0, q0, lam0, *, loss, f_scale, pixel_sigma,
-                  inlier_threshold, jac="analytic", start_mask=None, x0=None):
+                  inlier_threshold, jac="analytic", start_mask=None, x0=None, names=None):
     """Robust fit, inlier classification, least-squares polish on the inliers, covariance.
 
     ``uv_all (N, 2)`` pixels that see the world, ``o, d (N, 3)`` their rays, ``owner (N,)``
-    their line. The robust stage uses the pixels of ``start_mask`` (default all) with
-    depths ``lam0``. Returns a dict."""
+    their line (``names``: the argument each line's pixels came from, for errors). The
+    first stage (``loss``) uses the pixels of ``start_mask`` (default all) with depths
+    ``lam0``. The inliers are the pixels within the threshold of the fitted image
+    (``inlier_threshold``, else ``3.5 pixel_sigma``, else ``3 max(f_scale, 1.2 sigma_r)`` with
+    ``sigma_r`` from the median distance); a plain least-squares polish on them is
+    repeated (at most three times) until they settle. Returns a dict."""
+    names = names or [f"line {i}" for i in range(n_lines)]
     N = len(uv_all)
     use = np.ones(N, dtype=bool) if start_mask is None else np.asarray(start_mask, dtype=bool).copy()
     nfev = 0
@@ -689,37 +716,47 @@ def _solve_family(cam, uv_all, o, d, owner, n_lines, s0, q0, lam0, *, loss, f_sc
         lam[mask] = lam_m
         return s, q, lam, pb.nfev
 
-    if loss != "linear":
-        s, q, lam, k = solve(use, loss, s, q, lam)
-        nfev += k
-    def classify(lam, base):
-        lam, dist, _, _ = _depth_refine(cam, q[owner], s, uv_all, lam, iters=2)
+    def classify(s, q, lam, solved):
+        """Distances of every pixel to the fitted images (depths of the pixels outside the
+        solved set refined first) and the inliers."""
+        P = q[owner] + lam[:, None] * s
+        uvp, _, vis = project_with_jacobian(cam, P, uv_all)
+        rest = ~solved
+        if rest.any():
+            lam = lam.copy()
+            lam[rest], _, uvp[rest], vis[rest] = _depth_refine(cam, q[owner[rest]], s, uv_all[rest], lam[rest],
+                                                               iters=2)
+        dist = np.linalg.norm(uvp - uv_all, axis=-1)
+        dist = np.where(np.isfinite(dist), dist, np.inf)
         thr = inlier_threshold
         if thr is None:
-            d_in = dist[base & np.isfinite(dist)]
+            d_in = dist[solved & np.isfinite(dist)]
             sig = float(np.median(d_in) / _RAYLEIGH_MEDIAN) if len(d_in) else f_scale
             thr = 3.5 * pixel_sigma if pixel_sigma is not None else 3.0 * max(f_scale, 1.2 * sig)
         new = dist <= thr
         for i in range(n_lines):
             if int(np.sum(new & (owner == i))) < 3:
                 raise CatadioptricError(
-                    f"uv: line {i} keeps fewer than 3 inlier pixels (threshold {thr:.3g} px); "
+                    f"{names[i]}: keeps fewer than 3 inlier pixels (threshold {thr:.3g} px); "
                     f"the pixels do not look like the image of one 3-D line")
-        return lam, new, thr
+        return lam, new, dist, uvp, vis, thr
 
-    lam, inl, thr = classify(lam, use)
+    s, q, lam, k = solve(use, loss, s, q, lam)
+    nfev += k
+    lam, inl, dist, uvp, vis, thr = classify(s, q, lam, use)
+    polished = loss == "linear" and np.array_equal(inl, use)
     for _round in range(3):  # least-squares polish on the inliers until they settle
+        if polished:
+            break
         s, q, lam, k = solve(inl, "linear", s, q, lam)
         nfev += k
-        lam, new, thr = classify(lam, inl)
-        if np.array_equal(new, inl):
-            break
-        inl = new
-    inl = new  # (after the last round: inliers of the final state)
+        lam, new, dist, uvp, vis, thr = classify(s, q, lam, inl)
+        polished = np.array_equal(new, inl)
+        inl = new  # after the last round: the inliers of the final state
     # the chart re-centred at the solution (parameters zero) for the covariance
     pb = _Problem(cam, uv_all[inl], owner[inl], n_lines, xc, s, q, lam[inl])
     x = pb.x0()
-    e = pb.residuals(x).reshape(-1, 2)
+    e = (uvp - uv_all)[inl]
     cov_unit = pb.schur_cov(x, np.ones(pb.N, dtype=bool))
     n_in = int(inl.sum())
     dof = n_in - pb.np
@@ -744,11 +781,6 @@ def _solve_family(cam, uv_all, o, d, owner, n_lines, s0, q0, lam0, *, loss, f_sc
         Jp[3:, 3] = np.cross(-u[i] / rho[i] ** 2, s_)
         sub = [0, 1, 2 + 2 * i, 3 + 2 * i]
         jp.append(Jp @ cov[np.ix_(sub, sub)] @ Jp.T)
-    q, lam = _canonical(s, q, lam, owner)
-    P = q[owner] + lam[:, None] * s
-    uvp, _, vis = project_with_jacobian(cam, P, uv_all)
-    dist = np.linalg.norm(uvp - uv_all, axis=-1)
-    dist = np.where(np.isfinite(dist), dist, np.inf)
     return dict(s=s, q=q, lam=lam, dist=dist, uv_fit=uvp, visible=vis, inliers=inl, cov=cov, dir_cov=dir_cov,
                 pluecker_cov=jp, sigma=sigma, dof=dof, rss=rss, nfev=nfev, threshold=thr)
 
@@ -860,14 +892,18 @@ def _ransac(cam, frame, px: _Pixels, rng, thr, max_trials, sample_size=4, batch=
 
 
 def _best_linear(cam, frame, px: _Pixels):
-    """The candidate from all pixels with the smallest (exact) rms image distance."""
+    """The candidate from all pixels with the smallest rms image distance (first-order distances
+    for all candidates, exact ones for the few within a factor 3 of the best)."""
     L = _all_candidates(cam, frame, px.o, px.d)
     if len(L) == 0:
         raise CatadioptricError("uv: the linear solver found no line meeting the pixels' rays")
     lin = _linear_distances(px, L)
     lin_rms = np.sqrt(np.mean(np.minimum(lin, 1e6) ** 2, axis=1))
-    keep = np.argsort(lin_rms)[:4]  # exact distances for the best few only
-    dist, _ = _score_lines(cam, L[keep], px.uv, px.o, px.d, iters=2)
+    order = np.argsort(lin_rms)
+    keep = order[: max(1, int(np.sum(lin_rms[order[:4]] <= 3.0 * lin_rms[order[0]] + 1e-9)))]
+    if len(keep) == 1:
+        return L[keep[0]], len(L)
+    dist, _ = _score_lines(cam, L[keep], px.uv, px.o, px.d, iters=1)
     rms = np.sqrt(np.mean(np.minimum(dist, 1e6) ** 2, axis=1))
     return L[keep[int(np.argmin(rms))]], len(L)
 
@@ -882,7 +918,7 @@ def _prepare(cam, uv, name):
     return valid, _Pixels(sel(px.uv), sel(px.o), sel(px.d), sel(px.Jo), sel(px.Jd))
 
 
-def _orient(s, lam, inl):
+def _orient(lam, inl):
     """Flip the direction so that the first inlier's depth is below the last one's."""
     j = np.nonzero(inl)[0]
     return -1.0 if lam[j[-1]] < lam[j[0]] else 1.0
@@ -938,7 +974,8 @@ def fit_line(cam: CatadioptricCamera, uv, *, loss: str = "soft_l1", f_scale: flo
     lam0 = _closest_depths(q, s, px.o, px.d)
     owner = np.zeros(len(px.uv), dtype=np.int64)
     r = _solve_family(cam, px.uv, px.o, px.d, owner, 1, s, q[None], lam0, loss=loss, f_scale=f_scale,
-                      pixel_sigma=pixel_sigma, inlier_threshold=inlier_threshold, jac=jac, start_mask=mask)
+                      pixel_sigma=pixel_sigma, inlier_threshold=inlier_threshold, jac=jac, start_mask=mask,
+                      names=["uv"])
     return _line_result(r, ok, len(uv), n_hyp)
 
 
@@ -948,7 +985,7 @@ def _line_result(r, ok, M, n_hyp=0, line=0, owner=None):
     s, q = r["s"], r["q"][line]
     lam = r["lam"][sel]
     inl_v = r["inliers"][sel]
-    sign = _orient(s, lam, inl_v)
+    sign = _orient(lam, inl_v)
     s = sign * s
     lam = sign * lam
     full = lambda v, fill, tail=(): _scatter(ok, v, fill, M, tail)
@@ -1072,9 +1109,9 @@ def fit_parallel_lines(cam: CatadioptricCamera, uv_sets, *, loss: str = "soft_l1
     lam0 = _closest_depths(q0[owner], s0, o_all, d_all)
     r = _solve_family(cam, uv_all, o_all, d_all, owner, len(pxs), s0, q0, lam0, loss=loss, f_scale=f_scale,
                       pixel_sigma=pixel_sigma, inlier_threshold=inlier_threshold, jac=jac,
-                      start_mask=np.concatenate(masks))
+                      start_mask=np.concatenate(masks), x0=frame.x0, names=[f"uv_sets[{i}]" for i in range(len(pxs))])
     s, q = r["s"], r["q"]
-    sign = _orient(s, r["lam"][owner == 0], r["inliers"][owner == 0])
+    sign = _orient(r["lam"][owner == 0], r["inliers"][owner == 0])
     s = sign * s
     lam = sign * r["lam"]
     depths, pts, uvf, dists, inls, rms_l = [], [], [], [], [], []
@@ -1091,7 +1128,8 @@ def fit_parallel_lines(cam: CatadioptricCamera, uv_sets, *, loss: str = "soft_l1
     rms = float(np.sqrt(np.mean(r["dist"][r["inliers"]] ** 2)))
     return FamilyFit(direction=s, moments=np.cross(q, s), points=q, depths=depths, line_points=pts, uv_fit=uvf,
                      distances=dists, inliers=inls, rms=rms, rms_per_line=np.array(rms_l), sigma=r["sigma"],
-                     direction_cov=r["dir_cov"], cov=r["cov"], dof=int(r["dof"]), nfev=int(r["nfev"]))
+                     direction_cov=r["dir_cov"], pluecker_cov=np.array(r["pluecker_cov"]), cov=r["cov"],
+                     dof=int(r["dof"]), nfev=int(r["nfev"]))
 
 
 # --------------------------------------------------------------------------- vanishing points from curves
@@ -1121,24 +1159,19 @@ def vanishing_points_from_curves(cam: CatadioptricCamera, uv_sets, **options) ->
     the joint one, are matched to the joint points, and ``spread_max`` / ``spread_rms``
     say how far apart the individually fitted curves pass at each vanishing point (a
     line whose own fit fails counts as missing there).
+
+    Central cameras (``cam.is_central``; at least 2 curves): each curve gives only its
+    interpretation plane (:func:`fit_interpretation_plane`), the direction is the one normal
+    to all planes (:func:`direction_from_planes`), ``family`` is None, ``individual`` holds
+    the planes and ``individual_uv`` one row per pair of curves: the vanishing points of
+    the pair's own direction (where the two fitted curves cross).
     """
+    if isinstance(cam, CatadioptricCamera) and cam.is_central:
+        return _central_vanishing_points(cam, uv_sets, **options)
     fam = fit_parallel_lines(cam, uv_sets, **options)
     s = fam.direction
-    vp = cam.vanishing_points(s, which="both")
-    uv, sign, vis, inimg = vp.uv, vp.sign.astype(int), vp.visible, vp.in_image
-    # propagate the direction covariance: d uv / d (tangent coordinates) by central differences
-    e1, e2 = _tangent_basis(s)
-    h = 1e-6
-    J = np.full(uv.shape + (2,), np.nan)
-    for c, e in enumerate((e1, e2)):
-        vpp = cam.vanishing_points(_unit(s + h * e), which="both")
-        vpm = cam.vanishing_points(_unit(s - h * e), which="both")
-        up = _match_vps(uv, sign, vis, vpp.uv, vpp.sign, vpp.visible)
-        um = _match_vps(uv, sign, vis, vpm.uv, vpm.sign, vpm.visible)
-        J[:, :, c] = (up - um) / (2 * h)
-    E = np.stack([e1, e2], axis=1)
-    C2 = E.T @ fam.direction_cov @ E
-    uv_cov = np.einsum("kij,jl,kml->kim", J, C2, J)
+    vp, uv_cov = _vps_with_cov(cam, s, fam.direction_cov)
+    uv, sign, vis = vp.uv, vp.sign.astype(int), vp.visible
     indiv, uvs = [], []
     for u in uv_sets:
         try:
@@ -1151,16 +1184,98 @@ def vanishing_points_from_curves(cam: CatadioptricCamera, uv_sets, **options) ->
         si = f.direction if f.direction @ s >= 0 else -f.direction
         v = cam.vanishing_points(si, which="both")
         uvs.append(_match_vps(uv, sign, vis, v.uv, v.sign, v.visible))
+    return _curve_vps(s, fam.direction_cov, vp, uv_cov, uvs, fam, indiv)
+
+
+def _vps_with_cov(cam, s, direction_cov):
+    """Vanishing points of ``s`` (both ends) and their pixel covariances ``(K, 2, 2)``."""
+    vp = cam.vanishing_points(s, which="both")
+    uv, sign, vis = vp.uv, vp.sign.astype(int), vp.visible
+    # propagate the direction covariance: d uv / d (tangent coordinates) by central differences
+    e1, e2 = _tangent_basis(s)
+    h = 1e-6
+    J = np.full(uv.shape + (2,), np.nan)
+    for c, e in enumerate((e1, e2)):
+        vpp = cam.vanishing_points(_unit(s + h * e), which="both")
+        vpm = cam.vanishing_points(_unit(s - h * e), which="both")
+        up = _match_vps(uv, sign, vis, vpp.uv, vpp.sign, vpp.visible)
+        um = _match_vps(uv, sign, vis, vpm.uv, vpm.sign, vpm.visible)
+        J[:, :, c] = (up - um) / (2 * h)
+    E = np.stack([e1, e2], axis=1)
+    C2 = E.T @ direction_cov @ E
+    uv_cov = np.einsum("kij,jl,kml->kim", J, C2, J)
+    return vp, uv_cov
+
+
+def _curve_vps(s, direction_cov, vp, uv_cov, uvs, fam, indiv):
+    uv = vp.uv
     ind_uv = np.array(uvs).reshape(len(uvs), *uv.shape)
     dist = np.linalg.norm(ind_uv - uv[None], axis=-1)
     have = np.isfinite(dist)
     with np.errstate(invalid="ignore"):
         spread_max = np.where(have.any(axis=0), np.max(np.where(have, dist, -np.inf), axis=0), np.nan)
-        spread_rms = np.sqrt(np.nansum(np.where(have, dist**2, 0.0), axis=0) / np.maximum(have.sum(axis=0), 1))
+        spread_rms = np.sqrt(np.sum(np.where(have, dist**2, 0.0), axis=0) / np.maximum(have.sum(axis=0), 1))
     spread_rms = np.where(have.any(axis=0), spread_rms, np.nan)
-    return CurveVanishingPoints(direction=s, direction_cov=fam.direction_cov, uv=uv, sign=sign, visible=vis,
-                                in_image=inimg, uv_cov=uv_cov, individual_uv=ind_uv, spread_max=spread_max,
-                                spread_rms=spread_rms, family=fam, individual=indiv)
+    return CurveVanishingPoints(direction=s, direction_cov=direction_cov, uv=uv, sign=vp.sign.astype(int),
+                                visible=vp.visible, in_image=vp.in_image, uv_cov=uv_cov, individual_uv=ind_uv,
+                                spread_max=spread_max, spread_rms=spread_rms, family=fam, individual=indiv)
+
+
+def direction_from_planes(normals, normal_covs):
+    """The direction common to planes with unit ``normals (L, 3)`` (L >= 2) and covariances
+    ``normal_covs (L, 3, 3)``: minimises ``sum (n_i . s)^2 / (s^T C_i s)`` (reweighted
+    eigenvector). Returns ``(s, cov (3, 3))``, ``s`` unit (sign arbitrary)."""
+    n = as_float_array(normals, "normals", 3)
+    C = as_float_array(normal_covs, "normal_covs", (3, 3))
+    if n.ndim != 2 or len(n) < 2 or C.shape != (len(n), 3, 3):
+        raise CatadioptricError(f"normals, normal_covs: expected (L, 3) and (L, 3, 3) with L >= 2, got "
+                                f"{n.shape} and {C.shape}")
+    w = np.ones(len(n))
+    s = None
+    for _ in range(20):
+        s_new = np.linalg.eigh(np.einsum("l,li,lj->ij", w, n, n))[1][:, 0]
+        if s is not None and s_new @ s < 0:
+            s_new = -s_new
+        w = 1.0 / np.maximum(np.einsum("i,lij,j->l", s_new, C, s_new), 1e-300)
+        done = s is not None and np.linalg.norm(s_new - s) < 1e-14
+        s = s_new
+        if done:
+            break
+    e1, e2 = _tangent_basis(s)
+    E = np.stack([e1, e2], axis=1)
+    A = n @ E  # (L, 2): d(n_i . s) / d(tangent coordinates)
+    cov = E @ np.linalg.pinv(np.einsum("l,li,lj->ij", w, A, A)) @ E.T
+    return s, cov
+
+
+def _central_vanishing_points(cam, uv_sets, **options):
+    """Central camera: each curve gives its interpretation plane; the direction is normal to all of
+    them; each pair of curves meets at the vanishing points of the pair's own direction."""
+    allowed = {"f_scale", "ransac", "seed", "pixel_sigma", "inlier_threshold", "max_trials"}
+    opts = {k: v for k, v in options.items() if k in allowed}
+    sets = _check_sets(uv_sets)
+    if len(sets) < 2:
+        raise CatadioptricError(f"uv_sets: a central camera needs at least 2 curves (one gives only a plane), "
+                                f"got {len(sets)}")
+    planes = [fit_interpretation_plane(cam, u, **opts) for u in sets]
+    s, cov = direction_from_planes([p.normal for p in planes], [p.normal_cov for p in planes])
+    rays = cam.backproject(sets[0][planes[0].inliers])
+    d = rays.directions[rays.valid]
+    if len(d) >= 2 and (d[-1] - d[0]) @ s < 0:  # oriented from the first pixel's view to the last one's
+        s = -s
+    vp, uv_cov = _vps_with_cov(cam, s, cov)
+    sign = vp.sign.astype(int)
+    uvs = []
+    for i in range(len(planes)):
+        for j in range(i + 1, len(planes)):
+            sij = np.cross(planes[i].normal, planes[j].normal)
+            if np.linalg.norm(sij) < 1e-12:
+                uvs.append(np.full(vp.uv.shape, np.nan))
+                continue
+            sij = sij if sij @ s >= 0 else -sij
+            v = cam.vanishing_points(sij, which="both")
+            uvs.append(_match_vps(vp.uv, sign, vp.visible, v.uv, v.sign, v.visible))
+    return _curve_vps(s, cov, vp, uv_cov, uvs, None, planes)
 
 
 # --------------------------------------------------------------------------- central cameras

@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 
 import catadioptric as cd
-from catadioptric.linefit import (fit_interpretation_plane, fit_line, fit_parallel_lines, image_distances,
-                                  line_candidates, project_with_jacobian, segment_pixels,
+from catadioptric.lines import pluecker, segment_image
+from catadioptric.linefit import (direction_from_planes, fit_interpretation_plane, fit_line, fit_parallel_lines,
+                                  image_distances, line_candidates, project_with_jacobian, segment_pixels,
                                   vanishing_points_from_curves)
 from catadioptric.rigs import preset
 
@@ -117,6 +118,18 @@ def test_exact_pixels_give_the_exact_line(name):
     assert f.inliers.all() and f.rms < 1e-6
     assert np.allclose(f.points, pts, atol=1e-6)
     assert abs(f.point @ f.direction) < 1e-12  # the point of the line nearest the origin
+
+
+@pytest.mark.parametrize("name", ["sphere", "hyperboloid_9pct"])
+def test_fit_on_the_traced_curve_of_catadioptric_lines(name):
+    """Pixels evenly spaced along the exact curve traced by catadioptric.lines (not uniform in depth)."""
+    cam = _cam(name)
+    a, b = (np.array(v) for v in SEGMENTS[name])
+    uv = np.concatenate([p.uv for img in segment_image(cam, a, b, max_step_px=2.0) for p in img.pieces])
+    uv = uv[:: max(1, len(uv) // 80)]
+    f = fit_line(cam, uv)
+    assert np.linalg.norm(f.pluecker - pluecker(a, b - a)) < 1e-6
+    assert f.rms < 1e-6
 
 
 def _single_errors(name, sigma, seeds, **kw):
@@ -329,8 +342,28 @@ def test_central_camera_gives_only_the_interpretation_plane():
         fit_parallel_lines(cam, [uv, uv])
     # two parallel lines: their direction is normal to both planes
     assert _angle(np.cross(*normals), s) < np.radians(1.0)
+    s_fit, cov = direction_from_planes(normals, covs)
+    assert _angle(s_fit, s) < 5 * np.sqrt(np.trace(cov)) and abs(s_fit @ cov @ s_fit) < 1e-12
     with pytest.raises(cd.CatadioptricError, match=r"cam: expected a central camera"):
         fit_interpretation_plane(_cam("sphere"), uv)
+
+
+@pytest.mark.parametrize("name", ["hyperboloid_central", "ellipsoid_central"])
+def test_central_vanishing_points_from_curves(name):
+    cam = preset(name)
+    vp_pixel = (480.0, 160.0)
+    s, sets, _ = _family(cam, vp_pixel, [(150, 250), (470, 330), (330, 400), (420, 120)], [0.5, 0.6, 0.4, 0.7])
+    assert len(sets) >= 3
+    rng = np.random.default_rng(8)
+    res = vanishing_points_from_curves(cam, [u + rng.normal(0.0, 1.0, u.shape) for u in sets])
+    assert res.family is None and len(res.individual) == len(sets)
+    assert res.individual_uv.shape[0] == len(sets) * (len(sets) - 1) // 2
+    assert res.direction @ s > 0 and _angle(res.direction, s) < np.radians(0.5)
+    k = res.observable()[res.sign[res.observable()] > 0][0]
+    err = np.linalg.norm(res.uv[k] - vp_pixel)
+    assert err < 2.0 and err < 4 * np.sqrt(np.trace(res.uv_cov[k])) + 0.1
+    with pytest.raises(cd.CatadioptricError, match=r"uv_sets: a central camera needs at least 2 curves"):
+        vanishing_points_from_curves(cam, sets[:1])
 
 
 # ----------------------------------------------------------------------------- bad input
@@ -372,6 +405,6 @@ def test_bad_input_is_named():
         image_distances(cam, [0, 0, 1.0], [0, 0, 0], uv)
     with pytest.raises(E, match=r"n: expected a positive integer, got 0"):
         segment_pixels(cam, [0, 0, 1.0], [1, 0, 1.0], 0)
-    with pytest.raises(E, match=r"uv: line 0 keeps fewer than 3 inlier pixels"):
+    with pytest.raises(E, match=r"uv: keeps fewer than 3 inlier pixels"):
         scatter = np.random.default_rng(0).uniform(100, 500, (30, 2))
         fit_line(cam, scatter, f_scale=0.1, inlier_threshold=0.01, ransac=False)
