@@ -59,3 +59,14 @@ def test_central_family_direction_of_exact_lines():
         sets.append(pr.uv[pr.valid & pr.in_image])
     d, sig = rr.central_family_direction(uni, sets)
     assert min(np.linalg.norm(d - s), np.linalg.norm(d + s)) < 1e-9 and sig < 1e-9
+
+
+def test_noise_sweep_grows_with_noise(tmp_path):
+    from catadioptric.validate import noise_sweep as ns
+
+    res = ns.run(rigs=["hyperboloid", "sphere"], trials=20, seed=1)
+    for r in res["rigs"].values():
+        assert r["vp_error_mm"][0] < 1e-9 and r["direction_error_deg"][0] < 1e-9 and r["rotation_error_deg"][0] < 1e-6
+        assert r["vp_error_mm"][-1] > r["vp_error_mm"][1] > 0
+        assert r["direction_error_deg"][-1] > r["direction_error_deg"][1] > 0
+    assert "Reproduce" in ns.markdown(res, "cmd")

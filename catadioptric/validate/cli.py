@@ -31,6 +31,20 @@ def print_summary(res: dict) -> None:
     print("  (the paper, CVPR 2018 Sec. 5.4: Frobenius 0.0446 on its POV-Ray pair)")
 
 
+def _noise_sweep(args) -> int:
+    from . import noise_sweep as ns
+    from .report import write_report
+
+    res = ns.run(trials=args.trials, seed=args.seed)
+    cmd = f"catadioptric validate noise-sweep --out {args.out} --trials {args.trials} --seed {args.seed}"
+    paths = write_report(args.out, res, ns.markdown(res, cmd), {"noise_sweep": ns.figure(res)})
+    for name, r in res["rigs"].items():
+        print(f"  {name:22s} direction error at 10 px: {r['direction_error_deg'][-1]:.3f} deg; rotation |dR|_F at "
+              f"10 px: {r['rotation_error_frobenius'][-1]:.4f}")
+    print("wrote " + ", ".join(paths))
+    return 0
+
+
 def register(sub) -> None:
     p = sub.add_parser("validate", help="experiments on rendered datasets (relative rotation, ...)")
     vs = p.add_subparsers(dest="experiment", required=True)
@@ -42,3 +56,8 @@ def register(sub) -> None:
     r.add_argument("--max-pixels", type=int, default=150, help="pixels per line at most (default 150)")
     r.add_argument("--no-central", action="store_true", help="skip the central (unified) approximation")
     r.set_defaults(func=_relative_rotation, command_line=None)
+    n = vs.add_parser("noise-sweep", help="synthetic noise sweeps of VPs, directions and rotation (paper Figs. 5-6)")
+    n.add_argument("--out", required=True, metavar="DIR", help="report folder")
+    n.add_argument("--trials", type=int, default=100, help="trials per noise level (default 100)")
+    n.add_argument("--seed", type=int, default=0, help="seed (default 0)")
+    n.set_defaults(func=_noise_sweep)
