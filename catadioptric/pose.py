@@ -95,7 +95,9 @@ def translation_from_lines(R, world_lines, ray_lines, line_index) -> np.ndarray:
 def rotation_angle_deg(R) -> float:
     """The angle of a rotation matrix in degrees."""
     R = np.asarray(R, float)
-    return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1.0, 1.0))))
+    # atan2 of the sine (from the skew part) and the cosine (from the trace): accurate at small angles
+    sin = 0.5 * np.linalg.norm([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    return float(np.degrees(np.arctan2(sin, (np.trace(R) - 1) / 2)))
 
 
 def relative_rotation(dirs_a, dirs_b, weights=None, *, signs_known: bool = False) -> np.ndarray:
