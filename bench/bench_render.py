@@ -2,9 +2,11 @@
 ground truth + files) and views per minute of a dataset rendered with --workers 1 and 2.
 
     .venv/bin/python bench/bench_render.py [--scene urban_street] [--views 6] [--size 640x480]
+                                           [--line-images core|sampled]
 
-Writes bench/results/render.json (commit, versions, machine: bench/common.py). Standalone
-(not in bench/run.py: it needs POV-Ray and takes about two minutes).
+Writes bench/results/render.json (render-sampled.json with --line-images sampled; commit,
+versions, machine: bench/common.py). Standalone (not in bench/run.py: it needs POV-Ray
+and takes about ten minutes on the 2-core machine).
 """
 from __future__ import annotations
 
@@ -41,7 +43,8 @@ def _views(spec, n):
     return out[:n]
 
 
-def run(scene_name="urban_street", n_views=6, size=(640, 480), renderers=("mitsuba", "povray")) -> dict:
+def run(scene_name="urban_street", n_views=6, size=(640, 480), renderers=("mitsuba", "povray"),
+        line_images="core") -> dict:
     from catadioptric.render.common import load_quality
     from catadioptric.render.dataset import ViewTask, render_dataset, render_view_files
     from catadioptric.render.mitsuba import mitsuba_variant
@@ -58,7 +61,7 @@ def run(scene_name="urban_street", n_views=6, size=(640, 480), renderers=("mitsu
     q = load_quality("standard")
     out = {"scene": {"name": scene.name, "triangles": scene.triangle_count, "segments": int(len(scene.segments)),
                      "build_seconds": t_build},
-           "image": list(size), "quality": q, "mitsuba_variant": mitsuba_variant(), "povray": povray_version(),
+           "image": list(size), "quality": q, "line_images": line_images, "mitsuba_variant": mitsuba_variant(), "povray": povray_version(),
            "per_view": {}, "dataset": {}}
     with tempfile.TemporaryDirectory() as tmp:
         for r in renderers:
@@ -66,7 +69,7 @@ def run(scene_name="urban_street", n_views=6, size=(640, 480), renderers=("mitsu
             # first view twice: the first run includes Mitsuba's kernel compilation and the BVH build
             for i, (name, pose) in enumerate([views[0]] + views[:3]):
                 task = ViewTask(name, os.path.join(tmp, r, f"{i}_{name}"), r, q, cam.to_dict(), pose.to_dict(), 0,
-                                "bench", scene._catadioptric_digest)
+                                "bench", scene._catadioptric_digest, line_images=line_images)
                 res = render_view_files(scene, task)
                 rows.append({"view": name, "seconds": res["seconds"], **res["seconds_parts"],
                              "label_differing_pixels": res["label_differing_pixels"]})
@@ -81,7 +84,8 @@ def run(scene_name="urban_street", n_views=6, size=(640, 480), renderers=("mitsu
             for workers in (1, 2):
                 d = os.path.join(tmp, f"ds_{r}_{workers}")
                 t = time.perf_counter()
-                m = render_dataset(scene, views, cam, d, renderer=r, quality=q, workers=workers, progress=False)
+                m = render_dataset(scene, views, cam, d, renderer=r, quality=q, workers=workers, progress=False,
+                                   line_images=line_images)
                 dt = time.perf_counter() - t
                 out["dataset"][f"{r}_workers{workers}"] = {
                     "views": len(views), "seconds": dt, "views_per_minute": 60.0 * len(views) / dt,
@@ -98,10 +102,12 @@ def main() -> int:
     ap.add_argument("--views", type=int, default=6, help="views in the dataset runs (default 6)")
     ap.add_argument("--size", default="640x480", help="image size WIDTHxHEIGHT (default 640x480)")
     ap.add_argument("--renderers", default="mitsuba,povray")
+    ap.add_argument("--line-images", default="core", choices=["core", "sampled"])
     args = ap.parse_args()
     w, h = (int(x) for x in args.size.split("x"))
-    res = run(args.scene, args.views, (w, h), tuple(args.renderers.split(",")))
-    path = os.path.join(HERE, "results", "render.json")
+    res = run(args.scene, args.views, (w, h), tuple(args.renderers.split(",")), args.line_images)
+    name = "render.json" if args.line_images == "core" else f"render-{args.line_images}.json"
+    path = os.path.join(HERE, "results", name)
     write_json(path, {"benchmark": "render", "meta": metadata(), **res})
     print(f"wrote {os.path.relpath(path)}")
     return 0

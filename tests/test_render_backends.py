@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import catadioptric as cd
+from catadioptric.render import render
 from catadioptric.render.common import (RenderError, decode_labels_png, encode_labels_png, load_quality,
                                         load_resolution, rescale_camera)
 from catadioptric.render.mitsuba import mitsuba_variant, render_mitsuba
@@ -145,6 +146,8 @@ def test_bad_inputs():
         render_mitsuba(street, cam, pose)
     with pytest.raises(cd.CatadioptricError, match=r"resolution: expected one of .* or WIDTHxHEIGHT, got 'huge'"):
         load_resolution("huge")
+    with pytest.raises(cd.CatadioptricError, match=r"renderer: expected 'mitsuba' or 'povray', got 'blender'"):
+        render(street, cam, pose, "blender")
 
 
 def test_label_png_encoding_and_rescaled_camera():

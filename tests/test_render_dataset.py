@@ -156,11 +156,12 @@ def test_dask_local_cluster_output_equals_local(reference, tmp_path):
 def test_command_on_a_scene_spec(tmp_path, capsys):
     out = str(tmp_path / "ds")
     assert main(["render", "tiny_street", "--out", out, "--resolution", "tiny", "--views", "A", "--quality", "draft",
-                 "--no-progress"]) == 0
+                 "--line-images", "sampled", "--no-progress"]) == 0
     assert "1 views (1 rendered, 0 already done)" in capsys.readouterr().out
     with open(os.path.join(out, "manifest.json")) as f:
         m = json.load(f)
     assert m["scene"]["name"] == "tiny_street" and m["rig"]["name"] == "hyperboloid"
+    assert m["line_images"] == "sampled"
     assert m["rig"]["camera"]["pinhole"]["width"] == 160 and [v["name"] for v in m["views"]] == ["A"]
 
 
@@ -185,3 +186,5 @@ def test_command_errors(tmp_path, capsys):
         render_dataset(scene, [("a", views[0][1]), ("a", views[1][1])], cam, out)
     with pytest.raises(ValueError, match=r"renderer: expected one of \['mitsuba', 'povray'\], got 'blender'"):
         render_dataset(scene, views, cam, out, renderer="blender")
+    with pytest.raises(ValueError, match=r"line_images: expected one of \['core', 'sampled'\], got 'fast'"):
+        render_dataset(scene, views, cam, out, line_images="fast")

@@ -2,7 +2,7 @@
 
     catadioptric render SPEC --renderer mitsuba|povray --out DIR [--rig NAME_OR_FILE]
                         [--quality PRESET] [--resolution NAME|WxH] [--seed N] [--views A,B]
-                        [--workers N] [--scheduler ADDRESS]
+                        [--workers N] [--scheduler ADDRESS] [--line-images core|sampled]
 
 SPEC is a scene spec file or a name in ``scenes/`` (``catadioptric.scenes``); the
 special name ``builtin:test_street`` is the renderers' own test scene
@@ -63,7 +63,7 @@ def run(args) -> int:
     scene, views, cam, rig = _load(args)
     manifest = render_dataset(scene, views, cam, args.out, renderer=args.renderer, quality=args.quality,
                               workers=args.workers, scheduler=args.scheduler, rig=rig,
-                              progress=not args.no_progress)
+                              progress=not args.no_progress, line_images=args.line_images)
     run_ = manifest["run"]
     ag = manifest["label_agreement"]
     print(f"{args.out}: {len(manifest['views'])} views ({len(run_['rendered'])} rendered, "
@@ -103,5 +103,8 @@ def register(sub) -> None:
                    help="render N views in parallel in local processes (default 1)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run the views on this Dask scheduler instead "
                                                           "(e.g. tcp://127.0.0.1:8786)")
+    p.add_argument("--line-images", choices=["core", "sampled"], default="core",
+                   help="ground-truth line images from the geometry core's segment_image (default) or from "
+                        "our bisection sampler (same curves, faster)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)

@@ -53,6 +53,7 @@ class ViewTask:
     fingerprint: str
     scene_digest: str
     threads: int | None = None
+    line_images: str = "core"
 
 
 def _sha256(path) -> str:
@@ -133,7 +134,7 @@ def render_view_files(scene, task: ViewTask) -> dict:
     t1 = time.perf_counter()
     traced = trace_rays(scene, cam, pose)
     t2 = time.perf_counter()
-    gt = ground_truth(scene, cam, pose, view=task.name, traced=traced)
+    gt = ground_truth(scene, cam, pose, view=task.name, traced=traced, line_images=task.line_images)
     t3 = time.perf_counter()
     diff = res.labels != traced.labels
     agreement = {"renderer": task.renderer, "differing_pixels": int(diff.sum()), "pixels": int(diff.size),
@@ -225,15 +226,17 @@ def _jsonable(x):
 
 # ------------------------------------------------------------------ the dataset
 def render_dataset(scene, views, cam, out_dir, *, renderer: str = "mitsuba", quality="standard", workers: int = 1,
-                   scheduler=None, rig: dict | None = None, progress: bool = True) -> dict:
+                   scheduler=None, rig: dict | None = None, progress: bool = True, line_images: str = "core") -> dict:
     """Render every view ``(name, RigPose)`` of ``scene`` seen by the rig ``cam`` into ``out_dir``.
 
     ``workers > 1`` renders views in a local process pool; ``scheduler`` (a Dask scheduler
     address such as ``tcp://127.0.0.1:8786``, or a ``distributed.Client``) runs them on a
-    Dask cluster instead. Finished views are skipped (see :func:`view_status`). Returns the
-    manifest (also written to ``out_dir/manifest.json``).
+    Dask cluster instead. Finished views are skipped (see :func:`view_status`). ``line_images``:
+    how the ground truth's line images are computed (:func:`catadioptric.render.groundtruth.ground_truth`).
+    Returns the manifest (also written to ``out_dir/manifest.json``).
     """
     from ..cameras import CatadioptricCamera
+    from .groundtruth import LINE_IMAGES
 
     if renderer not in RENDERERS:
         raise CatadioptricError(f"renderer: expected one of {list(RENDERERS)}, got {renderer!r}")
@@ -241,6 +244,8 @@ def render_dataset(scene, views, cam, out_dir, *, renderer: str = "mitsuba", qua
         raise CatadioptricError(f"cam: expected a CatadioptricCamera, got {type(cam).__name__}")
     if not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1):
         raise CatadioptricError(f"workers: expected an integer >= 1, got {workers!r}")
+    if line_images not in LINE_IMAGES:
+        raise CatadioptricError(f"line_images: expected one of {sorted(LINE_IMAGES)}, got {line_images!r}")
     q = load_quality(quality)
     views = list(views)
     if not views:
@@ -270,10 +275,11 @@ def render_dataset(scene, views, cam, out_dir, *, renderer: str = "mitsuba", qua
     for name, pose in views:
         seed = _view_seed(scene.seed, name)
         params = {"format": FORMAT, "renderer": renderer, "quality": q, "camera": cam.to_dict(),
-                  "pose": pose.to_dict(), "scene": digest, "seed": seed}
+                  "pose": pose.to_dict(), "scene": digest, "seed": seed, "line_images": line_images}
         fp = _fingerprint(params)
         folder = os.path.join(out_dir, name)
-        tasks.append(ViewTask(name, folder, renderer, q, cam.to_dict(), pose.to_dict(), seed, fp, digest, threads))
+        tasks.append(ViewTask(name, folder, renderer, q, cam.to_dict(), pose.to_dict(), seed, fp, digest, threads,
+                              line_images))
         entries.append({"name": name, "folder": name, "seed": seed, "pose": pose.to_dict(), "fingerprint": fp})
     status = {t.name: view_status(t.folder, t.fingerprint) for t in tasks}
     todo = [t for t in tasks if status[t.name] != "done"]
@@ -308,6 +314,7 @@ def render_dataset(scene, views, cam, out_dir, *, renderer: str = "mitsuba", qua
                   "triangles": int(sum(len(o.faces) for o in scene.objects))},
         "rig": {**_jsonable(rig or {}), "camera": cam.to_dict()},
         "renderer": {"name": renderer, "quality": q},
+        "line_images": line_images,
         "versions": versions,
         **_git_commit(),
         "files": list(FILES) + [MARKER],

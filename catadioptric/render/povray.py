@@ -20,6 +20,7 @@ met the mirror again -> -2).
 """
 from __future__ import annotations
 
+import functools
 import os
 import shutil
 import subprocess
@@ -48,15 +49,24 @@ def povray_binary() -> str:
     return exe
 
 
-def povray_version() -> str | None:
+@functools.lru_cache(maxsize=4)
+def _version_of(exe: str) -> str | None:
     try:
-        out = subprocess.run([povray_binary(), "--version"], capture_output=True, text=True, timeout=30)
-    except (RenderError, OSError, subprocess.TimeoutExpired):
+        out = subprocess.run([exe, "--version"], capture_output=True, text=True, timeout=30)
+    except (OSError, subprocess.TimeoutExpired):
         return None
     for line in (out.stdout + out.stderr).splitlines():
         if line.startswith("POV-Ray "):
             return line.split()[1]
     return None
+
+
+def povray_version() -> str | None:
+    """POV-Ray's version string (None when it is not installed)."""
+    try:
+        return _version_of(povray_binary())
+    except RenderError:
+        return None
 
 
 # --------------------------------------------------------------------- writers
