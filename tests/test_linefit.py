@@ -132,6 +132,19 @@ def test_fit_on_the_traced_curve_of_catadioptric_lines(name):
     assert f.rms < 1e-6
 
 
+def test_line_coplanar_with_the_axis_is_reported_as_unconstrained():
+    """An axial rig sees a line in a plane through its axis only through that plane (every line of
+    the plane meets every ray of the plane): the fit matches the pixels, the covariance says so."""
+    cam = preset("sphere_axial")
+    a, b = np.array([0.15, 0.02, -0.3]), np.array([0.15, 0.02, 0.2])  # parallel to the axis
+    uv, _ = segment_pixels(cam, a, b, 40)
+    f = fit_line(cam, uv + np.random.default_rng(0).normal(0.0, 0.2, uv.shape), ransac=False)
+    assert f.rms < 0.5
+    assert f.direction_std > 1.0  # radians: unconstrained, not the 0 of a pseudo-inverse
+    tilted = fit_line(cam, segment_pixels(cam, a + [0, 0.05, 0], b - [0, 0.05, 0], 40)[0])
+    assert tilted.direction_std < 1e-6
+
+
 def _single_errors(name, sigma, seeds, **kw):
     uv, pts, a, b = _clean(name)
     s = (b - a) / np.linalg.norm(b - a)
