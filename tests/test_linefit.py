@@ -13,19 +13,17 @@ import pytest
 
 import catadioptric as cd
 from catadioptric.lines import pluecker, segment_image
-from catadioptric.linefit import (direction_from_planes, fit_interpretation_plane, fit_line, fit_parallel_lines,
-                                  image_distances, line_candidates, project_with_jacobian, segment_pixels,
+from catadioptric.linefit import (REFERENCE_FAMILIES, REFERENCE_SEGMENTS, direction_from_planes, family_pixels,
+                                  fit_interpretation_plane, fit_line, fit_parallel_lines, image_distances,
+                                  line_candidates, project_with_jacobian, segment_pixels,
                                   vanishing_points_from_curves)
 from catadioptric.rigs import preset
 
-# a well-conditioned segment per rig (close to the mirror, long) and the pixel noise that puts the
-# fitted direction's standard error near 0.4 degrees (the rigs differ by two orders of magnitude)
-SEGMENTS = {
-    "sphere": ([0.223, -0.192, 0.186], [-0.313, 0.025, -0.152]),
-    "hyperboloid_9pct": ([0.381, -0.37, -0.096], [-0.476, 0.125, 0.22]),
-    "ellipsoid": ([-0.251, -0.54, -0.038], [0.486, 0.343, -0.046]),
-}
-UNIT = {"sphere": 0.5, "hyperboloid_9pct": 0.1, "ellipsoid": 0.03}
+# a well-conditioned segment per rig (close to the mirror, long) and the pixel noise "unit" that puts the
+# fitted direction's standard error near 0.4 degrees (the rigs differ by two orders of magnitude); the
+# same scenes as the tables of docs/linefit.md
+SEGMENTS = {name: seg for name, (seg, unit) in REFERENCE_SEGMENTS.items()}
+UNIT = {name: unit for name, (seg, unit) in REFERENCE_SEGMENTS.items()}
 RIGS = list(SEGMENTS)
 
 
@@ -109,6 +107,9 @@ def test_exact_pixels_give_the_exact_line(name):
     cam = _cam(name) if name in SEGMENTS else preset(name)
     a, b = (np.array(v) for v in SEGMENTS.get(name, SEGMENTS["sphere"]))
     uv, pts = segment_pixels(cam, a, b, 60)
+    corners = np.array([[0.0, 0.0], [cam.pinhole.width - 1.0, 0.0]])  # pixels that miss the mirror
+    f = fit_line(cam, np.concatenate([uv, corners]))
+    assert not f.inliers[-2:].any() and np.isnan(f.depths[-2:]).all() and np.isinf(f.distances[-2:]).all()
     f = fit_line(cam, uv)
     s = (b - a) / np.linalg.norm(b - a)
     assert f.direction @ s > 0  # oriented from the first pixel's point to the last one's
@@ -248,34 +249,12 @@ def test_finite_difference_jacobian_gives_the_same_fit():
 
 
 # ----------------------------------------------------------------------------- families
-def _family(cam, vp_pixel, line_pixels, depths, n=50, phi=(-0.6, 1.45)):
-    """Parallel lines along the direction whose +s vanishing point is ``vp_pixel``, each through
-    the point at ``depth`` on the ray of one of ``line_pixels``; points spread evenly in the
-    angle ``phi`` (``q + tan(phi) s``) so that the curves run into the vanishing point."""
-    s = cam.backproject(np.array(vp_pixel, dtype=float)).directions
-    rays = cam.backproject(np.array(line_pixels, dtype=float))
-    t = np.tan(np.linspace(phi[0], phi[1], n))
-    sets, lines = [], []
-    for o, d, depth in zip(rays.origins, rays.directions, depths):
-        q = o + depth * d
-        pr = cam.project(q + t[:, None] * s)
-        ok = pr.valid[:, 0] & pr.in_image[:, 0] & (pr.valid.sum(axis=1) == 1)
-        if ok.sum() >= 15:
-            sets.append(pr.uv[ok, 0])
-            lines.append(q)
-    return s, sets, lines
-
-
-FAMILIES = {
-    "hyperboloid_9pct": ((330, 60), [(120, 240), (520, 240), (320, 420), (200, 380)], [0.4, 0.5, 0.6, 0.45]),
-    "sphere": ((250, 70), [(150, 250), (470, 230), (330, 380), (420, 120)], [0.3, 0.4, 0.35, 0.5]),
-    "ellipsoid": ((150, 200), [(320, 120), (460, 330), (300, 400), (420, 200)], [0.4, 0.5, 0.6, 0.45]),
-}
+FAMILIES = REFERENCE_FAMILIES
 
 
 @lru_cache(maxsize=None)
 def _family_scene(name):
-    return _family(_cam(name), *FAMILIES[name])
+    return family_pixels(_cam(name), *FAMILIES[name])
 
 
 @pytest.mark.parametrize("name", RIGS)
@@ -364,8 +343,8 @@ def test_central_camera_gives_only_the_interpretation_plane():
 @pytest.mark.parametrize("name", ["hyperboloid_central", "ellipsoid_central"])
 def test_central_vanishing_points_from_curves(name):
     cam = preset(name)
-    vp_pixel = (480.0, 160.0)
-    s, sets, _ = _family(cam, vp_pixel, [(150, 250), (470, 330), (330, 400), (420, 120)], [0.5, 0.6, 0.4, 0.7])
+    vp_pixel = FAMILIES[name][0]
+    s, sets, _ = family_pixels(cam, *FAMILIES[name])
     assert len(sets) >= 3
     rng = np.random.default_rng(8)
     res = vanishing_points_from_curves(cam, [u + rng.normal(0.0, 1.0, u.shape) for u in sets])
