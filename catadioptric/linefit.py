@@ -953,8 +953,9 @@ def fit_line(cam: CatadioptricCamera, uv, *, loss: str = "soft_l1", f_scale: flo
     Minimises the image distance of the pixels to the line's image: unknowns the line
     (4 DOF) and one depth per pixel, residual ``project(q + lambda_j s) - uv_j`` (the image
     branch nearest the pixel). ``ransac``: hypotheses from minimal sets of 4 pixels
-    (linear solver), MSAC-scored by image distance, ``max_trials`` samples at most
-    (``seed``: int, None or a Generator). Then ``least_squares`` with ``loss`` /
+    (linear solver) and near-central lines from 3 more, MSAC-scored by first-order image
+    distance, ``max_trials`` samples at most (``seed``: int, None or a Generator); without
+    it, the best linear candidate from all pixels. Then ``least_squares`` with ``loss`` /
     ``f_scale`` (pixels; set ``f_scale`` near the pixel noise) from the best hypothesis,
     inliers by image distance (``inlier_threshold`` pixels; default ``3 max(f_scale, sigma)``
     with sigma estimated robustly, or ``3.5 pixel_sigma``), and a plain least-squares
