@@ -74,10 +74,10 @@ def fit_family(cam, uv_sets, seed, max_drops: int = 5):
         try:
             return fit_parallel_lines(cam, sets, seed=seed), len(sets)
         except CatadioptricError as exc:
-            m = re.search(r"line (\d+) keeps fewer", str(exc))
+            m = re.search(r"(?:uv_sets\[(\d+)\]|line (\d+)): keeps fewer|line (\d+) keeps fewer", str(exc))
             if not m:
                 raise
-            sets.pop(int(m.group(1)))
+            sets.pop(int(next(g for g in m.groups() if g is not None)))
     raise CatadioptricError("uv_sets: no line of the family fits")
 
 
