@@ -3,6 +3,7 @@ ground truth + files) and views per minute of a dataset rendered with --workers 
 
     .venv/bin/python bench/bench_render.py [--scene urban_street] [--views 6] [--size 640x480]
                                            [--line-images core|sampled]
+    .venv/bin/python bench/bench_render.py --agreement --size 160x120   # label agreement, 24 views
 
 Writes bench/results/render.json (render-sampled.json with --line-images sampled; commit,
 versions, machine: bench/common.py). Standalone (not in bench/run.py: it needs POV-Ray
@@ -96,6 +97,48 @@ def run(scene_name="urban_street", n_views=6, size=(640, 480), renderers=("mitsu
     return out
 
 
+def agreement(size=(160, 120)) -> dict:
+    """Label images of both renderers against the float64 tracer on 24 views: the test street
+    seen by six rigs (three views each) and the tiny_street, chessboard and urban_street specs
+    (two views each). Counts differing pixels, and those off the tie pixels."""
+    from catadioptric.render.mitsuba import render_mitsuba
+    from catadioptric.render.povray import render_povray
+    from catadioptric.render.testscene import street_scene, street_views
+    from catadioptric.render.tracer import trace_rays
+    from catadioptric.rigspec import load_rig
+    from catadioptric.scenes import build_scene, scene_rig, views
+
+    W, H = size
+    cases = []
+    street = street_scene(0)
+    for rig in ("hyperboloid_9pct", "hyperboloid_central", "sphere", "ellipsoid", "paraboloid", "cone"):
+        cases.append(("test_street", rig, street, load_rig(rig, width=W, height=H), street_views(rig)))
+    for spec in ("tiny_street", "chessboard", "urban_street"):
+        s = build_scene(spec)
+        cases.append((spec, s.spec["rig"], s, scene_rig(s.spec, width=W, height=H), views(s.spec)))
+    keys = ("mitsuba", "povray", "between", "mitsuba_off_ties", "povray_off_ties", "between_off_ties", "ties")
+    total = dict.fromkeys(keys, 0) | {"pixels": 0, "views": 0}
+    rows = []
+    for name, rig, scene, cam, vs in cases:
+        for vn, pose in vs:
+            tr = trace_rays(scene, cam, pose)
+            mi = render_mitsuba(scene, cam, pose, "draft", beauty=False).labels
+            pv = render_povray(scene, cam, pose, "draft", beauty=False).labels
+            tie = tr.ambiguous
+            dm, dp, db = mi != tr.labels, pv != tr.labels, mi != pv
+            row = {"scene": name, "rig": rig, "view": vn, "mitsuba": int(dm.sum()), "povray": int(dp.sum()),
+                   "between": int(db.sum()), "mitsuba_off_ties": int((dm & ~tie).sum()),
+                   "povray_off_ties": int((dp & ~tie).sum()), "between_off_ties": int((db & ~tie).sum()),
+                   "ties": int(tie.sum())}
+            rows.append(row)
+            for k in keys:
+                total[k] += row[k]
+            total["pixels"] += tie.size
+            total["views"] += 1
+            print(f"  {name} {rig} {vn}: " + " ".join(f"{k} {row[k]}" for k in keys), flush=True)
+    return {"image": [W, H], "total": total, "views": rows}
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scene", default="urban_street", help="scene spec name or file (default urban_street)")
@@ -103,8 +146,17 @@ def main() -> int:
     ap.add_argument("--size", default="640x480", help="image size WIDTHxHEIGHT (default 640x480)")
     ap.add_argument("--renderers", default="mitsuba,povray")
     ap.add_argument("--line-images", default="core", choices=["core", "sampled"])
+    ap.add_argument("--agreement", action="store_true",
+                    help="instead: label agreement of both renderers with the tracer on 24 views "
+                         "(bench/results/render-agreement-WxH.json)")
     args = ap.parse_args()
     w, h = (int(x) for x in args.size.split("x"))
+    if args.agreement:
+        res = agreement((w, h))
+        path = os.path.join(HERE, "results", f"render-agreement-{w}x{h}.json")
+        write_json(path, {"benchmark": "render-agreement", "meta": metadata(), **res})
+        print(f"wrote {os.path.relpath(path)}: {res['total']}")
+        return 0
     res = run(args.scene, args.views, (w, h), tuple(args.renderers.split(",")), args.line_images)
     name = "render.json" if args.line_images == "core" else f"render-{args.line_images}.json"
     path = os.path.join(HERE, "results", name)
