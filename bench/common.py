@@ -1,7 +1,6 @@
 """Shared plumbing of the benchmarks: metadata, timing, atomic JSON output."""
 from __future__ import annotations
 
-import json
 import os
 import platform
 import subprocess
@@ -51,9 +50,6 @@ def best_time(fn, repeat: int = 3) -> float:
 
 
 def write_json(path: str, data: dict) -> None:
-    os.makedirs(os.path.dirname(path), exist_ok=True)
-    tmp = path + ".tmp"
-    with open(tmp, "w") as f:
-        json.dump(data, f, indent=2)
-        f.write("\n")
-    os.replace(tmp, path)
+    from catadioptric._io import atomic_write_json
+
+    atomic_write_json(path, data, indent=2)

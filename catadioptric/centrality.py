@@ -380,10 +380,14 @@ class CentralityReport:
                          f"VP max {a.vp_deg_stats['max'] if a.vp_deg_stats['max'] is not None else float('nan'):.3g} deg",
                          fontsize=8)
             ax.tick_params(labelsize=7)
-        tmp = path + ".tmp"
-        fig.savefig(tmp, format="png")
+        import io
+
+        from ._io import atomic_write_bytes
+
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png")
         plt.close(fig)
-        os.replace(tmp, path)
+        atomic_write_bytes(path, buf.getvalue())
 
     def save(self, out_dir: str) -> dict:
         """Write ``report.json``, ``report.md`` and ``heatmap.png`` into ``out_dir`` (each written to a
@@ -391,11 +395,10 @@ class CentralityReport:
         os.makedirs(out_dir, exist_ok=True)
         paths = {k: os.path.join(out_dir, n) for k, n in
                  (("json", "report.json"), ("md", "report.md"), ("png", "heatmap.png"))}
+        from ._io import atomic_write_bytes
+
         for key, text in (("json", _json_text(self.to_dict())), ("md", self.to_markdown())):
-            tmp = paths[key] + ".tmp"
-            with open(tmp, "w") as fh:
-                fh.write(text)
-            os.replace(tmp, paths[key])
+            atomic_write_bytes(paths[key], text.encode())
         self.heatmap(paths["png"])
         return paths
 

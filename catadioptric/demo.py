@@ -50,19 +50,21 @@ def run_geometry_demo(out_dir: str, rig: str = "hyperboloid_9pct") -> dict:
     ax.set_ylim(cam.pinhole.height - 0.5, -0.5)
     ax.set_aspect("equal")
     ax.set_facecolor("0.92")
-    t = np.linspace(0, 1, 4000)
     colors = plt.cm.tab20(np.linspace(0, 1, len(edges)))
-    for (i, j), col in zip(edges, colors):
-        pts = corners[i] + t[:, None] * (corners[j] - corners[i])
-        prj = cam.project(pts)
-        sel = prj.valid & prj.in_image
-        ax.plot(prj.uv[..., 0][sel], prj.uv[..., 1][sel], ".", ms=1.0, color=col)
-    ax.set_title(f"{rig}: images of the 12 edges of a 6 x 6 x 3 m box (exact projection)", fontsize=8)
+    images = cam.segment_image(corners[[i for i, _ in edges]], corners[[j for _, j in edges]])
+    for im, col in zip(images, colors):
+        for piece in im.pieces:
+            ax.plot(piece.uv[:, 0], piece.uv[:, 1], "-", lw=1.2, color=col)
+    ax.set_title(f"{rig}: exact images of the 12 edges of a 6 x 6 x 3 m box", fontsize=8)
+    import io
+
+    from ._io import atomic_write_bytes
+
     path = os.path.join(out_dir, "line_images.png")
-    tmp = path + ".tmp.png"
-    fig.savefig(tmp)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
     plt.close(fig)
-    os.replace(tmp, path)
+    atomic_write_bytes(path, buf.getvalue())
     print(f"wrote {path}")
     return {"round_trip_max_px": float(err.max()), "png": path}
 

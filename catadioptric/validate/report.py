@@ -2,42 +2,9 @@
 atomically (temporary file, then rename) into one folder."""
 from __future__ import annotations
 
-import json
 import os
-import tempfile
 
-import numpy as np
-
-
-def _jsonable(x):
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
-    if isinstance(x, (np.floating, float)):
-        f = float(x)
-        return f if np.isfinite(f) else None
-    if isinstance(x, (np.integer,)):
-        return int(x)
-    if isinstance(x, (np.bool_,)):
-        return bool(x)
-    return x
-
-
-def _atomic_write(path: str, data: bytes) -> None:
-    d = os.path.dirname(os.path.abspath(path))
-    os.makedirs(d, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=d, prefix=".tmp-", suffix=os.path.basename(path))
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+from .._io import atomic_write_bytes, atomic_write_json
 
 
 def write_report(out_dir: str, results: dict, markdown: str, figures: dict | None = None) -> list[str]:
@@ -45,10 +12,10 @@ def write_report(out_dir: str, results: dict, markdown: str, figures: dict | Non
     ``name``.png into ``out_dir``; returns the paths written."""
     paths = []
     p = os.path.join(out_dir, "report.json")
-    _atomic_write(p, (json.dumps(_jsonable(results), indent=1) + "\n").encode())
+    atomic_write_json(p, results)
     paths.append(p)
     p = os.path.join(out_dir, "report.md")
-    _atomic_write(p, markdown.encode())
+    atomic_write_bytes(p, markdown.encode())
     paths.append(p)
     for name, fig in (figures or {}).items():
         import io
@@ -56,7 +23,7 @@ def write_report(out_dir: str, results: dict, markdown: str, figures: dict | Non
         buf = io.BytesIO()
         fig.savefig(buf, format="png", dpi=fig.dpi)
         p = os.path.join(out_dir, f"{name}.png")
-        _atomic_write(p, buf.getvalue())
+        atomic_write_bytes(p, buf.getvalue())
         paths.append(p)
     return paths
 
