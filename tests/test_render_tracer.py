@@ -10,8 +10,8 @@ from catadioptric.rigs import preset
 from catadioptric.scenes import Scene, SceneObject
 
 
-def brute_force(o, d, tri):
-    """Nearest hit of every ray against every triangle (float64, no acceleration)."""
+def brute_hits(o, d, tri):
+    """Distances ``(rays, triangles)`` of every ray to every triangle (inf where it misses), float64."""
     v0, e1, e2 = tri[:, 0], tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
     p = np.cross(d[:, None], e2[None])
     det = np.einsum("tk,rtk->rt", e1, p)
@@ -21,8 +21,13 @@ def brute_force(o, d, tri):
         q = np.cross(s, e1[None])
         v = np.einsum("rk,rtk->rt", d, q) / det
         t = np.einsum("tk,rtk->rt", e2, q) / det
-    ok = (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)
-    t = np.where(ok, t, np.inf)
+        ok = (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)
+    return np.where(ok, t, np.inf)
+
+
+def brute_force(o, d, tri):
+    """Nearest hit of every ray against every triangle (float64, no acceleration)."""
+    t = brute_hits(o, d, tri)
     return t.min(axis=1), np.where(np.isfinite(t.min(axis=1)), t.argmin(axis=1), -1)
 
 
@@ -55,6 +60,28 @@ def test_bvh_equals_brute_force(street):
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     t_plane = np.einsum("ij,ij->i", tri[:, 0] - o[f], n) / np.einsum("ij,ij->i", d[f], n)
     assert np.allclose(t_plane, t_ref[f], rtol=1e-9, atol=0)
+
+
+def test_bvh_windows_and_excluded_labels(street):
+    verts = np.concatenate([o.vertices for o in street.objects])
+    offs = np.cumsum([0] + [len(o.vertices) for o in street.objects])
+    faces = np.concatenate([o.faces + k for o, k in zip(street.objects, offs)])
+    labels = np.concatenate([np.full(len(o.faces), o.label) for o in street.objects])
+    bvh = TriangleBVH(verts, faces, labels)
+    rng = np.random.default_rng(2)
+    o = rng.uniform([-30, -6.5, 0.5], [30, 6.5, 6], (2000, 3))
+    d = rng.normal(size=(2000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    lo, hi = rng.uniform(0, 10, 2000), rng.uniform(10, 40, 2000)
+    ex = rng.integers(0, 5, 2000)  # labels 1..4 excluded on some rays, 0 excludes nothing
+    hits = bvh.intersect(o, d, t_min=lo, t_max=hi, exclude_labels=ex)
+    t = brute_hits(o, d, verts[faces])
+    t[(labels[None] == ex[:, None]) | (t <= lo[:, None]) | (t >= hi[:, None])] = np.inf
+    ref = t.min(axis=1)
+    assert np.array_equal(np.isfinite(hits.t), np.isfinite(ref))
+    f = np.isfinite(ref)
+    assert np.allclose(hits.t[f], ref[f], rtol=1e-12, atol=0) and f.sum() > 300
+    assert not np.any(bvh.labels_of(hits)[f] == ex[f])
 
 
 def test_pixel_rays_follow_the_mirror(street):

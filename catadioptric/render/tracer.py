@@ -115,10 +115,11 @@ class TriangleBVH:
         self.leaf_size = int(np.max(np.diff(self.leaf_bounds)))
 
     # ------------------------------------------------------------------ queries
-    def intersect(self, origins, directions, t_min: float = 0.0, t_max=None, exclude_labels=None) -> Hits:
+    def intersect(self, origins, directions, t_min=0.0, t_max=None, exclude_labels=None) -> Hits:
         """First hit with ``t_min < t < t_max`` of each ray ``origins + t directions`` (float64).
 
-        ``t_max``: a number or one per ray (default: no limit; a limit prunes the traversal).
+        ``t_min``, ``t_max``: numbers or one per ray (default: 0 and no limit; a narrow window
+        prunes the traversal).
         ``exclude_labels (N,)``: triangles of that label are ignored for that ray (-1: none)."""
         o = as_float_array(origins, "origins", 3).reshape(-1, 3)
         d = as_float_array(directions, "directions", 3).reshape(-1, 3)
@@ -130,10 +131,12 @@ class TriangleBVH:
         if ex is not None and ex.shape != (len(o),):
             raise CatadioptricError(f"exclude_labels: expected shape ({len(o)},), got {ex.shape}")
         tmax = np.broadcast_to(np.inf if t_max is None else np.asarray(t_max, dtype=np.float64), (len(o),))
+        tmin = np.broadcast_to(np.asarray(t_min, dtype=np.float64), (len(o),))
         if self.n == 0:
             return Hits(t, tri)
         for s in range(0, len(o), RAY_CHUNK):
-            tt, ii = self._intersect_chunk(o[s:s + RAY_CHUNK], d[s:s + RAY_CHUNK], t_min, tmax[s:s + RAY_CHUNK],
+            tt, ii = self._intersect_chunk(o[s:s + RAY_CHUNK], d[s:s + RAY_CHUNK], tmin[s:s + RAY_CHUNK],
+                                           tmax[s:s + RAY_CHUNK],
                                            None if ex is None else ex[s:s + RAY_CHUNK])
             t[s:s + RAY_CHUNK] = tt
             tri[s:s + RAY_CHUNK] = ii
@@ -142,7 +145,7 @@ class TriangleBVH:
     def _slab(self, level, nodes, o, inv, tmin, tmax):
         """Entry distance of rays ``o, inv`` (3, P) into boxes ``nodes`` of ``level`` and whether they enter."""
         bx = self.boxes[level][:, nodes]
-        near = np.full(len(nodes), tmin)
+        near = np.array(tmin, dtype=np.float64)
         far = np.array(tmax, dtype=np.float64)
         with np.errstate(invalid="ignore"):
             for k in range(3):
@@ -156,13 +159,13 @@ class TriangleBVH:
     def _descend(self, rays, nodes, level, steps, oT, inv, t_min, best_t):
         """Breadth-first from ``level`` down ``steps`` levels: the (ray, node) pairs whose boxes the
         rays enter before their current best hit, with the entry distances."""
-        near, ok = self._slab(level, nodes, oT[:, rays], inv[:, rays], t_min, best_t[rays])
+        near, ok = self._slab(level, nodes, oT[:, rays], inv[:, rays], t_min[rays], best_t[rays])
         rays, nodes, near = rays[ok], nodes[ok], near[ok]
         for lv in range(level + 1, level + steps + 1):
             rays = np.repeat(rays, 2)
             nodes = np.repeat(nodes << 1, 2)
             nodes[1::2] += 1
-            near, ok = self._slab(lv, nodes, oT[:, rays], inv[:, rays], t_min, best_t[rays])
+            near, ok = self._slab(lv, nodes, oT[:, rays], inv[:, rays], t_min[rays], best_t[rays])
             rays, nodes, near = rays[ok], nodes[ok], near[ok]
         return rays, nodes, near
 
@@ -198,7 +201,7 @@ class TriangleBVH:
             rays = np.repeat(rays, 2)
             nodes = np.repeat(nodes << 1, 2)
             nodes[1::2] += 1
-            near, ok = self._slab(lv, nodes, oT[:, rays], inv[:, rays], t_min, best_t[rays])
+            near, ok = self._slab(lv, nodes, oT[:, rays], inv[:, rays], t_min[rays], best_t[rays])
             rays, nodes, near = rays[ok], nodes[ok], near[ok]
         return rays, nodes, near
 
@@ -223,7 +226,7 @@ class TriangleBVH:
         m = k[None, :] < count[:, None]
         rr = np.broadcast_to(r[:, None], m.shape)[m]
         ti = (start[:, None] + k[None, :])[m]
-        t = _moller_trumbore(o[rr], d[rr], self.v0[ti], self.e1[ti], self.e2[ti], t_min)
+        t = _moller_trumbore(o[rr], d[rr], self.v0[ti], self.e1[ti], self.e2[ti], t_min[rr])
         hit = t < best_t[rr]
         if ex is not None:
             hit &= self.tri_labels[ti] != ex[rr]
@@ -384,8 +387,9 @@ def trace_rays(scene, cam, pose, uv=None, *, ties: bool = True) -> TracedRays:
         t[ok] = hits.t
         if ties:
             sel = np.flatnonzero(lab > 0)
-            h2 = bvh.intersect(o_W[ok][sel], d_W[ok][sel], t_max=hits.t[sel] * (1 + 2 * TIE_REL),
-                               exclude_labels=lab[sel])
+            # only a window around the first hit matters (other labels are not nearer than it)
+            h2 = bvh.intersect(o_W[ok][sel], d_W[ok][sel], t_min=hits.t[sel] * (1 - 2 * TIE_REL),
+                               t_max=hits.t[sel] * (1 + 2 * TIE_REL), exclude_labels=lab[sel])
             a = np.zeros(len(lab), bool)
             a[sel] = h2.t <= hits.t[sel] * (1 + TIE_REL)
             amb[ok] = a
