@@ -2,9 +2,7 @@
 the label encoding of PNG files, and atomic file writes."""
 from __future__ import annotations
 
-import json
 import os
-import tempfile
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,7 +16,7 @@ from .tracer import LABEL_MIRROR_AGAIN, LABEL_NO_MIRROR, LABEL_SKY
 
 __all__ = ["RenderError", "RenderResult", "load_quality", "load_resolution", "rescale_camera", "check_view",
            "sky_radiance", "linear_to_srgb8", "encode_labels_png", "decode_labels_png", "atomic_write_bytes",
-           "atomic_write_json", "PRESET_DIR", "MAX_LABEL", "LABEL_SKY", "LABEL_NO_MIRROR", "LABEL_MIRROR_AGAIN"]
+           "atomic_write_json", "jsonable", "PRESET_DIR", "MAX_LABEL", "LABEL_SKY", "LABEL_NO_MIRROR", "LABEL_MIRROR_AGAIN"]
 
 # render/ at the top of the repository holds quality.toml and resolution.toml
 PRESET_DIR = Path(__file__).resolve().parents[2] / "render"
@@ -193,35 +191,5 @@ def decode_labels_png(img: np.ndarray) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ file writes
-def _umask() -> int:
-    m = os.umask(0)
-    os.umask(m)
-    return m
-
-
-_FILE_MODE = 0o666 & ~_umask()
-
-
-def atomic_write_bytes(path, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file in the same folder and ``os.replace``
-    (readers see the old file or the new one, never a part)."""
-    path = os.fspath(path)
-    d = os.path.dirname(path) or "."
-    fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".tmp", dir=d)
-    try:
-        os.fchmod(fd, _FILE_MODE)
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-
-
-def atomic_write_json(path, obj) -> None:
-    atomic_write_bytes(path, (json.dumps(obj, indent=1, sort_keys=False, allow_nan=False) + "\n").encode())
+# atomic writes (temporary file + os.replace) live in catadioptric._io, shared with reports and benchmarks
+from .._io import atomic_write_bytes, atomic_write_json, jsonable  # noqa: E402,F401

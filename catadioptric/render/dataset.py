@@ -27,7 +27,8 @@ import numpy as np
 
 from .._checks import CatadioptricError
 from ..frames import RigPose
-from .common import (RenderError, atomic_write_bytes, atomic_write_json, encode_labels_png, load_quality)
+from .._io import atomic_write_bytes, atomic_write_json, jsonable
+from .common import RenderError, encode_labels_png, load_quality
 from .tracer import scene_digest
 
 __all__ = ["render_dataset", "render_view_files", "ViewTask", "view_status", "FILES", "RENDERERS", "FORMAT"]
@@ -212,18 +213,6 @@ def _versions(renderer: str) -> dict:
     return out
 
 
-def _jsonable(x):
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    if isinstance(x, np.generic):
-        return x.item()
-    return x
-
-
 # ------------------------------------------------------------------ the dataset
 def render_dataset(scene, views, cam, out_dir, *, renderer: str = "mitsuba", quality="standard", workers: int = 1,
                    scheduler=None, rig: dict | None = None, progress: bool = True, line_images: str = "core") -> dict:
@@ -308,11 +297,11 @@ def render_dataset(scene, views, cam, out_dir, *, renderer: str = "mitsuba", qua
     total_px = cam.pinhole.width * cam.pinhole.height * len(tasks)
     manifest = {
         "format": FORMAT,
-        "scene": {"name": scene.name, "seed": int(scene.seed), "digest": digest, "spec": _jsonable(scene.spec),
+        "scene": {"name": scene.name, "seed": int(scene.seed), "digest": digest, "spec": jsonable(scene.spec),
                   "objects": len(scene.objects), "segments": int(len(scene.segments)),
                   "families": int(len(scene.families)),
                   "triangles": int(sum(len(o.faces) for o in scene.objects))},
-        "rig": {**_jsonable(rig or {}), "camera": cam.to_dict()},
+        "rig": {**jsonable(rig or {}), "camera": cam.to_dict()},
         "renderer": {"name": renderer, "quality": q},
         "line_images": line_images,
         "versions": versions,

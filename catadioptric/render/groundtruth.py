@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._checks import CatadioptricError
+from .._io import jsonable
 from .tracer import TracedRays, scene_bvh, trace_rays
 
 __all__ = ["GroundTruth", "ground_truth", "line_curves", "line_curves_sampled", "write_npz", "read_npz",
@@ -334,22 +335,7 @@ def groundtruth_json(gt: GroundTruth, scene, extra: dict | None = None) -> dict:
     }
     if extra:
         out.update(extra)
-    return _clean(out)
-
-
-def _clean(x):
-    """JSON-safe: numpy scalars to Python, non-finite floats to None (JSON has no NaN)."""
-    if isinstance(x, dict):
-        return {str(k): _clean(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_clean(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _clean(x.tolist())
-    if isinstance(x, np.generic):
-        x = x.item()
-    if isinstance(x, float) and not np.isfinite(x):
-        return None
-    return x
+    return jsonable(out)
 
 
 # ------------------------------------------------------------------------- npz
