@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .reflection import ACCEPT, ReflectionSolver, dedupe, gather, reflect
+from .reflection import ACCEPT, ReflectionSolver, dedupe, reflect
 
 
 class CentralSolver(ReflectionSolver):
@@ -25,10 +25,6 @@ class CentralSolver(ReflectionSolver):
         super().__init__(A, B, C, z_min, z_max, center, scale)
         self.V = np.asarray(viewpoint, float) / self.L
         self._c_frame = self.c
-
-    def solve(self, targets, w, *, backward=False):
-        owner, r, fwd = self.solve_flat(targets, w, backward=backward)
-        return gather(len(targets), owner, r, fwd, self.degree)
 
     def solve_flat(self, targets, w, *, backward=False):
         targets = np.asarray(targets, dtype=float)
