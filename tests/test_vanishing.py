@@ -202,3 +202,20 @@ def test_property_vanishing_points_obey_reflection(sx, sy, sz):
         i = (r - cam.center) / np.linalg.norm(r - cam.center, axis=-1, keepdims=True)
         d = i - 2 * np.sum(i * n, -1, keepdims=True) * n
         assert np.allclose(d, sg[:, None] * s / np.linalg.norm(s), atol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["hyperboloid_9pct", "sphere", "ellipsoid", "paraboloid", "hyperboloid_central"])
+def test_very_far_points_keep_their_image(name):
+    """Points up to 1e12 m away are still projected (a regression: far points lost their image
+    when the target's homogeneous weight became tiny), next to the +s vanishing point."""
+    cam = preset(name)
+    rng = np.random.default_rng(3)
+    S = rng.normal(size=(200, 3))
+    S /= np.linalg.norm(S, axis=1, keepdims=True)
+    vp = cam.vanishing_points(S)
+    ok = vp.valid[:, 0]
+    q = rng.normal(size=(200, 3))
+    for lam in (3e4, 1e7, 1e12):
+        pr = cam.project(q + lam * S)
+        d = np.where(pr.valid, np.linalg.norm(pr.uv - vp.uv[:, :1], axis=-1), np.inf).min(axis=1)
+        assert np.all(d[ok] < 1.0 + 1e4 / lam)
