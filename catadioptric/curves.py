@@ -58,36 +58,73 @@ def trace(evaluate, start, stop, *, periodic=False, max_step_px=1.0, n_start=64,
         order = np.lexsort((par, cid))
         cid, par = cid[order], par[order]
     uv, r, valid = evaluate(cid, par)
+    # intervals between neighbouring samples of one curve (and the wrap of a periodic one); only
+    # the intervals created in the last round are checked again
+    same = np.r_[cid[1:] == cid[:-1], False]
+    left = np.nonzero(same)[0]
+    right = left + 1
+    if periodic:
+        first = np.r_[0, np.nonzero(cid[1:] != cid[:-1])[0] + 1]
+        last = np.r_[first[1:] - 1, len(cid) - 1]
+        left, right = np.r_[left, last], np.r_[right, first]
+    period = (stop - start)[cid]
     for _ in range(max_rounds):
-        nxt = np.r_[np.arange(1, len(cid)), 0]
-        same = np.r_[cid[1:] == cid[:-1], False]
-        last = ~same  # the last sample of each curve
-        if periodic:  # wraps to the first sample of the same curve
-            first = np.r_[0, np.nonzero(cid[1:] != cid[:-1])[0] + 1]
-            nxt[last] = first
-        link = same | (last & periodic)
-        pn = par[nxt] + np.where(same, 0.0, (stop - start)[cid])  # parameter of the next sample
-        d = np.linalg.norm(uv[:, :, None, :] - uv[nxt][:, None, :, :], axis=-1)
-        d = np.where(valid[:, :, None] & valid[nxt][:, None, :], d, np.inf)
-        far = np.any(valid & (d.min(axis=2) > max_step_px), axis=1) | np.any(valid[nxt] & (d.min(axis=1) > max_step_px),
-                                                                              axis=1)
-        need = link & far & (pn - par > param_tol)
+        if len(left) == 0:
+            break
+        pl = par[left]
+        pr_ = par[right] + np.where(par[right] < pl, period[left], 0.0)  # the wrap of a periodic curve
+        va, vb = valid[left], valid[right]
+        kk = max(int(va.sum(axis=1).max(initial=0)), int(vb.sum(axis=1).max(initial=0)), 1)  # valid slots come first
+        d = np.linalg.norm(uv[left, :kk, None, :] - uv[right, None, :kk, :], axis=-1)
+        d = np.where(va[:, :kk, None] & vb[:, None, :kk], d, np.inf)
+        far = np.any(va[:, :kk] & (d.min(axis=2) > max_step_px), axis=1) | \
+            np.any(vb[:, :kk] & (d.min(axis=1) > max_step_px), axis=1)
+        need = far & (pr_ - pl > param_tol)
         if not np.any(need):
             break
-        mid = 0.5 * (par[need] + pn[need])
-        mc = cid[need]
+        l, rr = left[need], right[need]
+        mc = cid[l]
+        mid = 0.5 * (pl[need] + pr_[need])
         if periodic:
             mid = np.where(mid >= stop[mc], mid - (stop - start)[mc], mid)
         uv2, r2, v2 = evaluate(mc, mid)
-        cid = np.r_[cid, mc]
-        par = np.r_[par, mid]
-        order = np.lexsort((par, cid))
-        cid, par = cid[order], par[order]
-        uv = np.concatenate([uv, uv2])[order]
-        r = np.concatenate([r, r2])[order]
-        valid = np.concatenate([valid, v2])[order]
-    return [_chain(c, par[cid == c], uv[cid == c], r[cid == c], valid[cid == c], periodic, max_step_px,
-                   start[c], stop[c]) for c in range(C)]
+        new = np.arange(len(cid), len(cid) + len(mc))
+        cid, par = np.r_[cid, mc], np.r_[par, mid]
+        period = np.r_[period, (stop - start)[mc]]
+        uv, r, valid = np.concatenate([uv, uv2]), np.concatenate([r, r2]), np.concatenate([valid, v2])
+        left, right = np.r_[l, new], np.r_[new, rr]
+    order = np.lexsort((par, cid))
+    cid, par, uv, r, valid = cid[order], par[order], uv[order], r[order], valid[order]
+    return [_merge(_chain(c, par[cid == c], uv[cid == c], r[cid == c], valid[cid == c], periodic, max_step_px,
+                          start[c], stop[c]), periodic, max_step_px) for c in range(C)]
+
+
+def _merge(pieces: list[Piece], periodic: bool, max_step_px: float) -> list[Piece]:
+    """Join pieces that continue one another (the end of one within a step of the start of the
+    next: where two branches touch, the matching of samples can cut a curve), and close loops."""
+    pieces = list(pieces)
+    changed = True
+    while changed:
+        changed = False
+        for a in range(len(pieces)):
+            A = pieces[a]
+            if A.closed:
+                continue
+            for b in range(len(pieces)):
+                B = pieces[b]
+                if b == a or B.closed or np.linalg.norm(A.uv[-1] - B.uv[0]) > max_step_px:
+                    continue
+                pieces[a] = Piece(A.curve, np.concatenate([A.uv, B.uv]), np.concatenate([A.mirror_points, B.mirror_points]),
+                                  np.concatenate([A.params, B.params]), False, A.at_start, B.at_stop)
+                del pieces[b]
+                changed = True
+                break
+            if changed:
+                break
+    for p in pieces:
+        if periodic and not p.closed and len(p.uv) > 2 and np.linalg.norm(p.uv[-1] - p.uv[0]) <= max_step_px:
+            p.closed = True
+    return pieces
 
 
 def _piece(c, uv, r, par, ii, kk, closed, periodic, start, stop):
