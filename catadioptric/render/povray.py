@@ -3,7 +3,7 @@
 Everything is written in the world frame W: scene meshes as they are (``mesh2``), the
 mirror as POV-Ray's exact ``quadric { <1,1,A>, <0,0,0>, <0,0,B>, -C }`` clipped and
 bounded by a box around the patch and moved M -> W by ``matrix`` (``x_W = R^T (x_M - t)``),
-the camera by its centre and axes in W. Camera vectors (see /work/shared/design/rendering-notes.md
+the camera by its centre and axes in W. Camera vectors (see render/README.md
 and docs/formats.md): ``location C``, ``right x_c W/fx``, ``up -y_c H/fy`` (plus the skew
 term), ``direction`` the ray of the image centre, so that POV-Ray's pixel (col, row) is
 sampled at the OpenCV pixel centre (u, v) = (col, row).
