@@ -167,7 +167,10 @@ def solve_targets(cam: CatadioptricCamera, targets: np.ndarray, w: float, backwa
     fwd = np.concatenate([p[2] for p in parts])
     inside = cam.mirror.in_patch(r)  # the exact patch, whatever the solver's rounding
     owner, r, fwd = owner[inside], r[inside], fwd[inside]
-    vis = visibility(cam, r, targets[owner], np.full(len(owner), float(w)))
+    tg = targets[owner]
+    if w == 0:  # a -s point's reflected ray leaves along -s: test that ray for obstruction
+        tg = np.where(fwd[:, None], tg, -tg)
+    vis = visibility(cam, r, tg, np.full(len(owner), float(w)))
     uv = cam.pixels_of_mirror_points(r)
     return FlatSolutions(owner, r, fwd, vis, uv)
 

@@ -95,7 +95,8 @@ def reflection_points(cam, target, w=1.0, n_phi=720, n_z=400, sign=+1):
         # visibility, one ray at a time
         t_end = 1 - 1e-9 if w > 0.5 else np.inf
         blocked_in = _hits(A, B, C, m.z_min, m.z_max, c, r - c, 1e-9, 1 - 1e-9)
-        blocked_out = _hits(A, B, C, m.z_min, m.z_max, r, target - w * r, 1e-9, t_end)
+        # the reflected ray leaves along sign * (target - w r): for the -s points, along -s
+        blocked_out = _hits(A, B, C, m.z_min, m.z_max, r, sign * (target - w * r), 1e-9, t_end)
         front = (cam.R_cam_from_mirror @ (r - c))[2] > 0
         found.append((r, bool(front and not blocked_in and not blocked_out)))
     return found

@@ -219,3 +219,13 @@ def test_very_far_points_keep_their_image(name):
         pr = cam.project(q + lam * S)
         d = np.where(pr.valid, np.linalg.norm(pr.uv - vp.uv[:, :1], axis=-1), np.inf).min(axis=1)
         assert np.all(d[ok] < 1.0 + 1e4 / lam)
+
+
+@pytest.mark.parametrize("name", ["hyperboloid_9pct", "sphere", "ellipsoid"])
+def test_minus_s_points_are_the_plus_s_points_of_the_opposite_direction(name):
+    cam = preset(name)
+    S = np.random.default_rng(6).normal(size=(100, 3))
+    both = cam.vanishing_points(S, which="both").opposite()
+    neg = cam.vanishing_points(-S)
+    assert np.array_equal(both.valid, neg.valid)
+    assert np.allclose(np.nan_to_num(both.uv, nan=-1), np.nan_to_num(neg.uv, nan=-1), atol=1e-9)
