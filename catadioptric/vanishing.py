@@ -47,9 +47,14 @@ class VanishingPoints:
 
 
 def _select(vp: VanishingPoints, mask, sign_value) -> VanishingPoints:
+    """The entries of ``mask`` only (visible ones first), the others emptied."""
     order = np.argsort(~(mask & vp.visible) + 2 * ~mask, axis=-1, kind="stable")
-    take = lambda a: np.take_along_axis(a, order[..., None] if a.ndim == order.ndim + 1 else order, axis=-1 if
-                                        a.ndim == order.ndim else -2)
+
+    def take(a):
+        if a.ndim == order.ndim:  # per-entry flags
+            return np.take_along_axis(a, order, axis=-1)
+        return np.take_along_axis(a, order[..., None], axis=-2)  # per-entry coordinates
+
     m = take(mask)
     uv = np.where(m[..., None], take(vp.uv), np.nan)
     r = np.where(m[..., None], take(vp.mirror_points), np.nan)
