@@ -615,13 +615,17 @@ class UnifiedFit:
         }
 
 
+def _normalised_plane(xi, R, c, Rt, X, w):
+    """Homogeneous points ``(X, w)`` on the unit sphere, shifted by xi and tilted: ``q`` (before K)."""
+    Y = (X - w[:, None] * c) @ R.T
+    p = Y / np.linalg.norm(Y, axis=-1, keepdims=True)
+    p[:, 2] += xi
+    return p @ Rt.T
+
+
 def _project_homogeneous(xi, K, R, c, Rt, X, w):
     """Pixels of homogeneous points ``(X, w)`` (w = 1 finite, 0 at infinity), no checks."""
-    Y = (X - w[:, None] * c) @ R.T
-    Xs = Y / np.linalg.norm(Y, axis=-1, keepdims=True)
-    p = Xs.copy()
-    p[:, 2] += xi
-    q = p @ Rt.T
+    q = _normalised_plane(xi, R, c, Rt, X, w)
     x = q[:, 0] / q[:, 2]
     y = q[:, 1] / q[:, 2]
     return np.stack([K[0, 0] * x + K[0, 1] * y + K[0, 2], K[1, 1] * y + K[1, 2]], axis=-1), q[:, 2]
@@ -629,11 +633,7 @@ def _project_homogeneous(xi, K, R, c, Rt, X, w):
 
 def _linear_K(xi, R, c, Rt, X, w, uv):
     """The K (fx, s, cx, fy, cy) minimising the pixel residuals for fixed xi, R, c, R_tilt (linear)."""
-    Y = (X - w[:, None] * c) @ R.T
-    Xs = Y / np.linalg.norm(Y, axis=-1, keepdims=True)
-    p = Xs.copy()
-    p[:, 2] += xi
-    q = p @ Rt.T
+    q = _normalised_plane(xi, R, c, Rt, X, w)
     x = q[:, 0] / q[:, 2]
     y = q[:, 1] / q[:, 2]
     one = np.ones_like(x)

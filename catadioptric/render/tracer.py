@@ -161,12 +161,8 @@ class TriangleBVH:
         rays enter before their current best hit, with the entry distances."""
         near, ok = self._slab(level, nodes, oT[:, rays], inv[:, rays], t_min[rays], best_t[rays])
         rays, nodes, near = rays[ok], nodes[ok], near[ok]
-        for lv in range(level + 1, level + steps + 1):
-            rays = np.repeat(rays, 2)
-            nodes = np.repeat(nodes << 1, 2)
-            nodes[1::2] += 1
-            near, ok = self._slab(lv, nodes, oT[:, rays], inv[:, rays], t_min[rays], best_t[rays])
-            rays, nodes, near = rays[ok], nodes[ok], near[ok]
+        if steps:
+            return self._descend_children(rays, nodes, level, steps, oT, inv, t_min, best_t)
         return rays, nodes, near
 
     def _ordered(self, rays, nodes, near, level, ctx):
@@ -188,8 +184,7 @@ class TriangleBVH:
                     self._test_leaves(r, nd, o, d, t_min, best_t, best_i, ex)
                 else:
                     steps = min(SUBTREE, self.depth - level)
-                    r2, n2, near2 = self._descend(r, nd, level, 0, oT, inv, t_min, best_t)
-                    r2, n2, near2 = self._descend_children(r2, n2, level, steps, oT, inv, t_min, best_t)
+                    r2, n2, near2 = self._descend(r, nd, level, steps, oT, inv, t_min, best_t)
                     if len(r2):
                         self._ordered(r2, n2, near2, level + steps, ctx)
             lo_rank += width
