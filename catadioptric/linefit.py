@@ -239,6 +239,17 @@ def _check_options(loss, f_scale, pixel_sigma, inlier_threshold):
     return f_scale, pixel_sigma, inlier_threshold
 
 
+def _check_fit_options(jac, max_trials, f_scale, pixel_sigma, inlier_threshold) -> float:
+    """Checks shared by the fits; returns the RANSAC inlier threshold in pixels."""
+    if jac not in ("analytic", "2-point", "3-point"):
+        raise CatadioptricError(f"jac: expected 'analytic', '2-point' or '3-point', got {jac!r}")
+    if not (isinstance(max_trials, (int, np.integer)) and max_trials >= 1):
+        raise CatadioptricError(f"max_trials: expected a positive integer, got {max_trials!r}")
+    if inlier_threshold is not None:
+        return inlier_threshold
+    return 3.5 * pixel_sigma if pixel_sigma is not None else 3.0 * f_scale
+
+
 def _rng(seed):
     if isinstance(seed, np.random.Generator):
         return seed
@@ -969,14 +980,9 @@ def fit_line(cam: CatadioptricCamera, uv, *, loss: str = "soft_l1", f_scale: flo
     _check_camera(cam, "the line's position and direction")
     uv = _check_uv(uv, "uv", 5)
     f_scale, pixel_sigma, inlier_threshold = _check_options(loss, f_scale, pixel_sigma, inlier_threshold)
-    if jac not in ("analytic", "2-point", "3-point"):
-        raise CatadioptricError(f"jac: expected 'analytic', '2-point' or '3-point', got {jac!r}")
-    if not (isinstance(max_trials, (int, np.integer)) and max_trials >= 1):
-        raise CatadioptricError(f"max_trials: expected a positive integer, got {max_trials!r}")
+    thr = _check_fit_options(jac, max_trials, f_scale, pixel_sigma, inlier_threshold)
     rng = _rng(seed)
     ok, px = _prepare(cam, uv, "uv")
-    thr = inlier_threshold if inlier_threshold is not None else (
-        3.5 * pixel_sigma if pixel_sigma is not None else 3.0 * f_scale)
     s, q, mask, n_hyp = _initial_line(cam, px, ransac=ransac, rng=rng, thr=thr, max_trials=int(max_trials))
     lam0 = _closest_depths(q, s, px.o, px.d)
     owner = np.zeros(len(px.uv), dtype=np.int64)
@@ -1069,13 +1075,8 @@ def fit_parallel_lines(cam: CatadioptricCamera, uv_sets, *, loss: str = "soft_l1
     _check_camera(cam, "the lines' positions and direction")
     sets = _check_sets(uv_sets)
     f_scale, pixel_sigma, inlier_threshold = _check_options(loss, f_scale, pixel_sigma, inlier_threshold)
-    if jac not in ("analytic", "2-point", "3-point"):
-        raise CatadioptricError(f"jac: expected 'analytic', '2-point' or '3-point', got {jac!r}")
-    if not (isinstance(max_trials, (int, np.integer)) and max_trials >= 1):
-        raise CatadioptricError(f"max_trials: expected a positive integer, got {max_trials!r}")
+    thr = _check_fit_options(jac, max_trials, f_scale, pixel_sigma, inlier_threshold)
     rng = _rng(seed)
-    thr = inlier_threshold if inlier_threshold is not None else (
-        3.5 * pixel_sigma if pixel_sigma is not None else 3.0 * f_scale)
     prepared = [_prepare(cam, u, f"uv_sets[{i}]") for i, u in enumerate(sets)]
     pxs = [p[1] for p in prepared]
     o_all = np.concatenate([p.o for p in pxs])
