@@ -279,8 +279,11 @@ class _Street:
             tag = f"{name}:window{k}"
             self.edge(f"{tag}_bottom", A, A + w * u, n - _Z, host, color)
             self.edge(f"{tag}_top", A + h * _Z, A + h * _Z + w * u, n + _Z, host, color)
-            self.edge(f"{tag}_left", A, A + h * _Z, n - u, host, color)
-            self.edge(f"{tag}_right", A + w * u, A + w * u + h * _Z, n + u, host, color)
+            # the side edges stop a tube radius short of the top and bottom ones: overlapping tubes at
+            # the corners would make pixels whose label is a tie between two coplanar faces
+            side_inset = self.eps + self.r
+            self.edge(f"{tag}_left", A, A + h * _Z, n - u, host, color, inset=side_inset)
+            self.edge(f"{tag}_right", A + w * u, A + w * u + h * _Z, n + u, host, color, inset=side_inset)
 
     def markings(self, ground: int, blocks) -> None:
         st, m = self.spec["street"], self.spec["markings"]
