@@ -6,13 +6,12 @@ polish and checks as ours. All three run in one process, on the same directions.
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from catadioptric.rigs import preset
 from catadioptric.solvers.constraints import general_resultant
 from catadioptric.solvers.general import GeneralSolver
 
-from common import best_time
+from common import best_time, least_squares_reflection
 
 
 class EigvalsRoute(GeneralSolver):
@@ -42,25 +41,6 @@ class EigvalsRoute(GeneralSolver):
             g.roots_in_unit_interval = saved
 
 
-def least_squares_vp(cam, s):
-    m = cam.mirror
-    c = cam.center
-    L = m.scale
-    z0 = 0.5 * (m.z_min + m.z_max)
-    rho = np.sqrt(max(float(m.radius_squared(z0)), 0.0))
-    az = np.arctan2(s[1], s[0])
-    r0 = np.array([rho * np.cos(az), rho * np.sin(az), z0])
-
-    def f(x):
-        r = x * L
-        n = m.normal(r)
-        n = n / np.linalg.norm(n)
-        i = (r - c) / np.linalg.norm(r - c)
-        return np.r_[i - 2 * (i @ n) * n - s, m.implicit(r) / L**2]
-
-    return least_squares(f, r0 / L, xtol=1e-14, ftol=1e-14, gtol=1e-14).x * L
-
-
 def run(sizes=(1_000, 10_000, 100_000, 1_000_000), rig="hyperboloid_9pct", n_baseline=200, seed=0):
     cam = preset(rig)
     rng = np.random.default_rng(seed)
@@ -73,7 +53,7 @@ def run(sizes=(1_000, 10_000, 100_000, 1_000_000), rig="hyperboloid_9pct", n_bas
     a = ours.solve(S[:2000], 0.0)
     b = eig.solve(S[:2000], 0.0)
     agree = float(np.mean(a.found.sum(1) == b.found.sum(1)))
-    t_ls = best_time(lambda: [least_squares_vp(cam, s) for s in S[:n_baseline]], repeat=1)
+    t_ls = best_time(lambda: [least_squares_reflection(cam, s, 0.0) for s in S[:n_baseline]], repeat=1)
     ls_rate = n_baseline / t_ls
     rows = []
     for n in sizes:

@@ -53,3 +53,26 @@ def write_json(path: str, data: dict) -> None:
     from catadioptric._io import atomic_write_json
 
     atomic_write_json(path, data, indent=2)
+
+
+def least_squares_reflection(cam, target, w: float):
+    """One reflection point of a target by scipy's least_squares (the per-target baseline of the
+    benchmarks): a point ``target`` (w = 1) or a direction (w = 0), started in the middle of
+    the patch on the side facing the target; finds one solution only."""
+    from scipy.optimize import least_squares
+
+    m, c, L = cam.mirror, cam.center, cam.mirror.scale
+    z0 = 0.5 * (m.z_min + m.z_max)
+    rho = np.sqrt(max(float(m.radius_squared(z0)), 0.0))
+    az = np.arctan2(target[1], target[0])
+    r0 = np.array([rho * np.cos(az), rho * np.sin(az), z0])
+
+    def f(x):
+        r = x * L
+        n = m.normal(r)
+        n = n / np.linalg.norm(n)
+        i = (r - c) / np.linalg.norm(r - c)
+        o = target - w * r
+        return np.r_[i - 2 * (i @ n) * n - o / np.linalg.norm(o), m.implicit(r) / L**2]
+
+    return least_squares(f, r0 / L, xtol=1e-14, ftol=1e-14, gtol=1e-14).x * L
