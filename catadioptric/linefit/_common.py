@@ -1,0 +1,81 @@
+"""Small helpers shared by the line fits: tangent bases, argument checks, seeds."""
+from __future__ import annotations
+
+import numpy as np
+
+from .._checks import CatadioptricError, as_float_array, as_scalar
+from ..cameras import CatadioptricCamera
+
+_LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
+_RAYLEIGH_MEDIAN = np.sqrt(2.0 * np.log(2.0))  # median of |e| for a 2-D Gaussian error of unit sigma
+# --------------------------------------------------------------------------- small helpers
+def _unit(v):
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _tangent_basis(s):
+    """Two unit vectors ``e1, e2`` with ``(e1, e2, s)`` right-handed orthonormal, for unit ``s (..., 3)``."""
+    s = np.asarray(s, dtype=float)
+    a = np.where((np.abs(s[..., 0]) < 0.8)[..., None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    e1 = _unit(np.cross(a, s))
+    e2 = np.cross(s, e1)
+    return e1, e2
+
+
+def _check_camera(cam, what: str):
+    if not isinstance(cam, CatadioptricCamera):
+        raise CatadioptricError(f"cam: expected a CatadioptricCamera, got {type(cam).__name__}")
+    if cam.is_central:
+        raise CatadioptricError(
+            f"cam: the camera is central (every ray passes through the viewpoint "
+            f"{np.round(cam.viewpoint, 6).tolist()}): one image fixes only the plane through the viewpoint "
+            f"that holds the line, not {what}; use fit_interpretation_plane (and vanishing_points_from_curves "
+            f"for two or more parallel lines)"
+        )
+
+
+def _check_uv(uv, name: str, min_pixels: int = 5) -> np.ndarray:
+    a = as_float_array(uv, name, 2)
+    if a.ndim != 2:
+        raise CatadioptricError(f"{name}: expected an array of shape (M, 2), got an array of shape {a.shape}")
+    if len(a) < min_pixels:
+        raise CatadioptricError(f"{name}: expected at least {min_pixels} pixels, got {len(a)}")
+    return a
+
+
+def _check_options(loss, f_scale, pixel_sigma, inlier_threshold):
+    if loss not in _LOSSES:
+        raise CatadioptricError(f"loss: expected one of {list(_LOSSES)}, got {loss!r}")
+    f_scale = as_scalar(f_scale, "f_scale", positive=True)
+    if pixel_sigma is not None:
+        pixel_sigma = as_scalar(pixel_sigma, "pixel_sigma", positive=True)
+    if inlier_threshold is not None:
+        inlier_threshold = as_scalar(inlier_threshold, "inlier_threshold", positive=True)
+    return f_scale, pixel_sigma, inlier_threshold
+
+
+def _check_fit_options(jac, max_trials, f_scale, pixel_sigma, inlier_threshold) -> float:
+    """Checks shared by the fits; returns the RANSAC inlier threshold in pixels."""
+    if jac not in ("analytic", "2-point", "3-point"):
+        raise CatadioptricError(f"jac: expected 'analytic', '2-point' or '3-point', got {jac!r}")
+    if not (isinstance(max_trials, (int, np.integer)) and max_trials >= 1):
+        raise CatadioptricError(f"max_trials: expected a positive integer, got {max_trials!r}")
+    if inlier_threshold is not None:
+        return inlier_threshold
+    return 3.5 * pixel_sigma if pixel_sigma is not None else 3.0 * f_scale
+
+
+def _rng(seed):
+    if isinstance(seed, np.random.Generator):
+        return seed
+    if seed is None or isinstance(seed, (int, np.integer)):
+        return np.random.default_rng(seed)
+    raise CatadioptricError(f"seed: expected an int, None or a numpy Generator, got {type(seed).__name__}")
+
+
+def _scatter(ok, v, fill, M, tail=()):
+    out = np.full((M,) + tail, fill, dtype=np.asarray(v).dtype if not isinstance(fill, float) else float)
+    out[ok] = v
+    return out
+
+

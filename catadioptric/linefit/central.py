@@ -1,0 +1,133 @@
+"""Central cameras: a line's interpretation plane from one image (:func:`fit_interpretation_plane`)
+and the direction common to several planes (:func:`direction_from_planes`)."""
+from __future__ import annotations
+
+import numpy as np
+
+from .._checks import CatadioptricError, as_float_array
+from ..cameras import CatadioptricCamera
+from ._common import _check_options, _check_uv, _rng, _scatter, _tangent_basis
+from .distances import _pixels
+from .results import InterpretationPlane
+
+
+def direction_from_planes(normals, normal_covs):
+    """The direction common to planes with unit ``normals (L, 3)`` (L >= 2) and covariances
+    ``normal_covs (L, 3, 3)``: minimises ``sum (n_i . s)^2 / (s^T C_i s)`` (reweighted
+    eigenvector). Returns ``(s, cov (3, 3))``, ``s`` unit (sign arbitrary)."""
+    n = as_float_array(normals, "normals", 3)
+    C = as_float_array(normal_covs, "normal_covs", (3, 3))
+    if n.ndim != 2 or len(n) < 2 or C.shape != (len(n), 3, 3):
+        raise CatadioptricError(f"normals, normal_covs: expected (L, 3) and (L, 3, 3) with L >= 2, got "
+                                f"{n.shape} and {C.shape}")
+    w = np.ones(len(n))
+    s = None
+    for _ in range(20):
+        s_new = np.linalg.eigh(np.einsum("l,li,lj->ij", w, n, n))[1][:, 0]
+        if s is not None and s_new @ s < 0:
+            s_new = -s_new
+        w = 1.0 / np.maximum(np.einsum("i,lij,j->l", s_new, C, s_new), 1e-300)
+        done = s is not None and np.linalg.norm(s_new - s) < 1e-14
+        s = s_new
+        if done:
+            break
+    e1, e2 = _tangent_basis(s)
+    E = np.stack([e1, e2], axis=1)
+    A = n @ E  # (L, 2): d(n_i . s) / d(tangent coordinates)
+    cov = E @ np.linalg.pinv(np.einsum("l,li,lj->ij", w, A, A)) @ E.T
+    return s, cov
+
+
+# --------------------------------------------------------------------------- central cameras
+def fit_interpretation_plane(cam: CatadioptricCamera, uv, *, f_scale: float = 1.0, ransac: bool = True, seed=0,
+                             pixel_sigma=None, inlier_threshold=None, max_trials: int = 200) -> InterpretationPlane:
+    """What one image of a central camera says about a 3-D line: the plane through the
+    viewpoint that holds it (``normal``, unit; the line's direction is normal to it).
+
+    Pixels ``uv (M, 2)`` (M >= 3). Minimises the first-order image distance of each pixel
+    to the plane's image, ``|n . d_j| / |Jd_j^T n|`` (``d_j`` the pixel's ray direction,
+    ``Jd_j`` its derivative by the pixel), by reweighted eigenvector iterations, after
+    RANSAC over pairs of pixels (``n = d_1 x d_2``). ``normal_cov`` from the same
+    linearisation (sigma from the residuals unless ``pixel_sigma`` is given). Two or
+    more parallel lines give their direction as the common normal of their planes.
+    """
+    if not isinstance(cam, CatadioptricCamera):
+        raise CatadioptricError(f"cam: expected a CatadioptricCamera, got {type(cam).__name__}")
+    if not cam.is_central:
+        raise CatadioptricError("cam: expected a central camera (cam.is_central); a non-central camera sees the "
+                                "whole line: use fit_line")
+    uv = _check_uv(uv, "uv", 3)
+    f_scale, pixel_sigma, inlier_threshold = _check_options("linear", f_scale, pixel_sigma, inlier_threshold)
+    rng = _rng(seed)
+    px, valid = _pixels(cam, uv)
+    if int(valid.sum()) < 3:
+        raise CatadioptricError(f"uv: expected at least 3 pixels that see the world, got {int(valid.sum())}")
+    d, Jd = px.d[valid], px.Jd[valid]
+
+    def dist(n):  # (H, M) first-order pixel distances to planes with unit normals n (H, 3)
+        num = np.abs(n @ d.T)
+        den = np.linalg.norm(np.einsum("mki,hk->hmi", Jd, n), axis=-1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(den > 0, num / den, np.inf)
+
+    thr = inlier_threshold if inlier_threshold is not None else (
+        3.5 * pixel_sigma if pixel_sigma is not None else 3.0 * f_scale)
+    M = len(d)
+    inl = np.ones(M, dtype=bool)
+    if ransac and M > 3:
+        best, best_cost = None, np.inf
+        for _ in range(int(np.ceil(max_trials / 64))):
+            idx = np.argsort(rng.random((64, M)), axis=1)[:, :2]
+            n = np.cross(d[idx[:, 0]], d[idx[:, 1]])
+            nn = np.linalg.norm(n, axis=-1)
+            n = n[nn > 1e-12] / nn[nn > 1e-12, None]
+            if len(n) == 0:
+                continue
+            cost = np.sum(np.minimum(dist(n) ** 2, thr**2), axis=1)
+            j = int(np.argmin(cost))
+            if cost[j] < best_cost:
+                best, best_cost = n[j], cost[j]
+        if best is not None:
+            inl = dist(best[None])[0] <= thr
+            if inl.sum() < 3:
+                inl = np.ones(M, dtype=bool)
+    def refine(inl):
+        w, n = np.ones(M), None
+        for _ in range(50):
+            A = np.einsum("m,mi,mj->ij", w * inl, d, d)
+            n_new = np.linalg.eigh(A)[1][:, 0]
+            if n is not None and n_new @ n < 0:
+                n_new = -n_new
+            w = 1.0 / np.maximum(np.linalg.norm(np.einsum("mki,k->mi", Jd, n_new), axis=-1), 1e-300) ** 2
+            done = n is not None and np.linalg.norm(n_new - n) < 1e-14
+            n = n_new
+            if done:
+                break
+        return n, w
+
+    n, w = refine(inl)
+    if ransac:  # inliers of the refined plane (threshold from a robust sigma unless given)
+        r = dist(n[None])[0]
+        thr2 = thr
+        if inlier_threshold is None and pixel_sigma is None:
+            thr2 = 3.0 * max(f_scale, 1.2 * float(np.median(r[inl])) / 0.6745)
+        new = r <= thr2
+        if new.sum() >= 3 and not np.array_equal(new, inl):
+            inl = new
+            n, w = refine(inl)
+    r = dist(n[None])[0]
+    e1, e2 = _tangent_basis(n)
+    E = np.stack([e1, e2], axis=1)
+    # residual_j = (n . d_j) sqrt(w_j): derivative by the tangent coordinates of n is sqrt(w_j) d_j . e_k
+    Jt = (d[inl] @ E) * np.sqrt(w[inl])[:, None]
+    k = int(inl.sum())
+    dof = k - 2
+    rss = float(np.sum(r[inl] ** 2))
+    sigma = pixel_sigma if pixel_sigma is not None else (float(np.sqrt(rss / dof)) if dof > 0 else float("nan"))
+    cov = E @ np.linalg.pinv(Jt.T @ Jt) @ E.T * sigma**2
+    full = _scatter(valid, r, np.inf, len(uv))
+    return InterpretationPlane(normal=n, viewpoint=cam.viewpoint, normal_cov=cov,
+                               rms=float(np.sqrt(np.mean(r[inl] ** 2))), distances=full,
+                               inliers=_scatter(valid, inl, False, len(uv)))
+
+
