@@ -7,10 +7,11 @@ STAMP := $(VENV)/.installed-stamp
 
 .PHONY: demo test bench system-deps venv clean
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml Makefile tools/one-opencv.sh
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[dev]'
+	@bash tools/one-opencv.sh $(PY)
 	@touch $(STAMP)
 
 venv: $(STAMP)
