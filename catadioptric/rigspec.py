@@ -18,9 +18,10 @@ A rig spec has two tables (the format is documented in ``docs/formats.md``, "Rig
     offset = [0.004, 0.0, -0.006]           # added to the focus
     look_at = [0.0, 0.0, 0.06]              # or R_cam_from_mirror = [[...], [...], [...]]
 
-:func:`load_rig` accepts a file path or a name: ``render/rigs/<name>.toml`` (or ``.json``)
-of a source checkout, else the preset ``catadioptric.rigs.preset(name)``; the files in
-``render/rigs`` reproduce those presets exactly (``tests/test_rigspec.py``).
+:func:`load_rig` accepts a file path or a name: the rig spec file ``<name>.toml`` (or ``.json``)
+of the package data (``catadioptric/data/rigs``, :data:`RIG_DIR`), else the preset
+``catadioptric.rigs.preset(name)``; the packaged files reproduce those presets exactly
+(``tests/test_rigspec.py``).
 
 :class:`SpecTable` reads one table of a parsed spec file, checks every value and
 refuses unknown keys; every error is a :class:`CatadioptricError` whose message
@@ -38,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from ._checks import CatadioptricError
+from ._data import data_names, data_path
 from .cameras import CatadioptricCamera, PinholeCamera, look_at_rotation
 from .mirrors import QuadricMirror
 
@@ -54,8 +56,8 @@ __all__ = [
     "rig_names",
 ]
 
-#: The folder of the rig spec files of a source checkout (``render/rigs``).
-RIG_DIR = Path(__file__).resolve().parent.parent / "render" / "rigs"
+#: The folder of the packaged rig spec files (``catadioptric/data/rigs``, read with importlib.resources).
+RIG_DIR = data_path("rigs")
 
 MIRROR_KINDS = ("sphere", "ellipsoid", "hyperboloid", "paraboloid", "cone", "cylinder", "quadric")
 
@@ -541,17 +543,14 @@ def rig_from_spec(spec: dict, *, width: int | None = None, height: int | None = 
 
 # ------------------------------------------------------------------ resolution
 def rig_names() -> list[str]:
-    """Names :func:`load_rig` resolves: the files of ``render/rigs`` and the presets of ``catadioptric.rigs``."""
+    """Names :func:`load_rig` resolves: the packaged rig spec files and the presets of ``catadioptric.rigs``."""
     from .rigs import preset_names
 
-    names = set(preset_names())
-    if RIG_DIR.is_dir():
-        names.update(p.stem for p in RIG_DIR.iterdir() if p.suffix in (".toml", ".json"))
-    return sorted(names)
+    return sorted(set(preset_names()) | set(data_names("rigs")))
 
 
 def find_rig_file(name: str) -> Path | None:
-    """The spec file of rig ``name`` in ``render/rigs`` (``.toml`` first, then ``.json``), or None."""
+    """The packaged spec file of rig ``name`` (:data:`RIG_DIR`; ``.toml`` first, then ``.json``), or None."""
     for suffix in (".toml", ".json"):
         p = RIG_DIR / f"{name}{suffix}"
         if p.is_file():
@@ -591,7 +590,7 @@ def load_rig(path_or_name, *, width: int | None = None, height: int | None = Non
     """The :class:`CatadioptricCamera` of a rig spec file (TOML or JSON) or of a rig name.
 
     A name (no path separator, no ``.toml``/``.json`` suffix) resolves to
-    ``render/rigs/<name>.toml`` of a source checkout, else to the preset
+    the packaged ``<name>.toml`` (:data:`RIG_DIR`), else to the preset
     ``catadioptric.rigs.preset(name)`` (the files reproduce the presets exactly).
     ``width``/``height`` replace the image size (see :func:`rig_from_spec`).
     """

@@ -31,7 +31,7 @@ def _views():
         name, pose = street_views(rig)[i]
         out.append((f"street-{rig}-{name}", street, load_rig(rig, width=W, height=H), pose))
     for spec, v in (("tiny_street", "A"), ("chessboard", "B")):
-        s = build_scene(f"scenes/{spec}.toml")
+        s = build_scene(spec)
         out.append((f"{spec}-{v}", s, scene_rig(s.spec, width=W, height=H), dict(views(s.spec))[v]))
     return out
 

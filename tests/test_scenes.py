@@ -10,13 +10,13 @@ import pytest
 
 import catadioptric as cd
 from catadioptric.rigs import preset
-from catadioptric.scenes import build_scene, load_spec, read_scene_spec, scene_rig, views
+from catadioptric.scenes import SPEC_DIR, build_scene, load_spec, read_scene_spec, scene_rig, views
 from catadioptric.scenes.builder import canonical_direction
 from catadioptric.scenes.spec import board_frame
 
 trimesh = pytest.importorskip("trimesh")
 
-SCENES = Path(__file__).resolve().parents[1] / "scenes"
+SCENES = SPEC_DIR  # the packaged scene specs (catadioptric/data/scenes)
 TINY = SCENES / "tiny_street.toml"
 
 

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from .._checks import CatadioptricError
+from .._data import data_path
 from ..cameras import CatadioptricCamera, PinholeCamera
 from ..frames import RigPose
 from .tracer import LABEL_MIRROR_AGAIN, LABEL_NO_MIRROR, LABEL_SKY
@@ -18,8 +19,8 @@ __all__ = ["RenderError", "RenderResult", "load_quality", "load_resolution", "re
            "sky_radiance", "linear_to_srgb8", "encode_labels_png", "decode_labels_png", "atomic_write_bytes",
            "atomic_write_json", "jsonable", "PRESET_DIR", "MAX_LABEL", "LABEL_SKY", "LABEL_NO_MIRROR", "LABEL_MIRROR_AGAIN"]
 
-# render/ at the top of the repository holds quality.toml and resolution.toml
-PRESET_DIR = Path(__file__).resolve().parents[2] / "render"
+# the packaged presets quality.toml and resolution.toml (catadioptric/data, read with importlib.resources)
+PRESET_DIR = data_path()
 # labels are stored in 16-bit PNGs; the two top values stand for -1 and -2
 MAX_LABEL = 65533
 
@@ -52,7 +53,7 @@ def _read_toml(path: Path, what: str) -> dict:
 
 
 def load_quality(preset="standard") -> dict:
-    """A quality preset: a name in ``render/quality.toml``, a path to a TOML file with one
+    """A quality preset: a name in the packaged ``quality.toml`` (``catadioptric/data``), a path to a TOML file with one
     table (or the keys at top level), or a dict. Returns the checked settings plus ``name``."""
     if isinstance(preset, dict):
         table, name = dict(preset), preset.get("name", "custom")

@@ -1,7 +1,7 @@
 """Scene spec files (TOML or JSON): reading, checking, defaults, views and the rig.
 
-The format is documented in ``docs/formats.md`` ("Scene specs"); the files live in
-the top-level ``scenes/`` folder. Every error is a :class:`CatadioptricError`
+The format is documented in ``docs/formats.md`` ("Scene specs"); the named specs
+(``urban_street``, ...) are package data (``catadioptric/data/scenes``, :data:`SPEC_DIR`). Every error is a :class:`CatadioptricError`
 whose message starts with the key's path from the root ``scene``, e.g.
 ``scene.buildings.height_range: expected two increasing positive numbers, got [5, 2]``.
 """
@@ -14,9 +14,10 @@ import numpy as np
 
 from .._checks import CatadioptricError
 from ..frames import RigPose
+from .._data import data_names, data_path
 from ..rigspec import REQUIRED, SpecTable, read_rig_spec, read_spec_file
 
-__all__ = ["GENERATORS", "SPEC_DIR", "spec_path", "read_scene_spec", "load_spec", "as_spec", "views", "scene_rig", "view_rotation",
+__all__ = ["GENERATORS", "SPEC_DIR", "spec_path", "spec_names", "read_scene_spec", "load_spec", "as_spec", "views", "scene_rig", "view_rotation",
            "sun_direction"]
 
 GENERATORS = ("street", "chessboard")
@@ -286,24 +287,34 @@ def load_spec(path) -> dict:
     return read_scene_spec(data)
 
 
-#: The folder of the scene spec files of a source checkout (``scenes/``).
-SPEC_DIR = Path(__file__).resolve().parents[2] / "scenes"
+#: The folder of the packaged scene specs (``catadioptric/data/scenes``, read with importlib.resources).
+SPEC_DIR = data_path("scenes")
+
+
+def spec_names() -> list[str]:
+    """The names :func:`spec_path` resolves (the packaged scene specs)."""
+    return data_names("scenes")
 
 
 def spec_path(name_or_path) -> Path:
-    """A scene spec file: a path, or a name of ``scenes/<name>.toml``."""
+    """A scene spec file: a path (a ``.toml``/``.json`` name, a path with a folder, or an existing
+    file), or the name of a packaged spec (``urban_street`` -> ``catadioptric/data/scenes/urban_street.toml``)."""
     p = Path(name_or_path)
-    if p.suffix in (".toml", ".json") or p.is_file():
+    s = str(name_or_path)
+    if p.suffix in (".toml", ".json") or "/" in s or "\\" in s or p.is_file():
+        if not p.exists() and p.stem in spec_names():
+            raise CatadioptricError(f"spec: no file {s!r}; the packaged spec {p.stem!r} is given by its name "
+                                    f"({p.stem}), or copy {str(SPEC_DIR / (p.stem + '.toml'))!r} to edit it")
         return p
-    q = SPEC_DIR / f"{name_or_path}.toml"
-    if q.is_file():
-        return q
-    names = sorted(f.stem for f in SPEC_DIR.glob("*.toml")) if SPEC_DIR.is_dir() else []
-    raise CatadioptricError(f"spec: expected a scene spec file or one of {names}, got {str(name_or_path)!r}")
+    for suffix in (".toml", ".json"):
+        q = SPEC_DIR / f"{s}{suffix}"
+        if s and q.is_file():
+            return q
+    raise CatadioptricError(f"spec: expected a scene spec file or one of {spec_names()}, got {s!r}")
 
 
 def as_spec(spec_or_path) -> dict:
-    """A normalised spec from a path, a name of ``scenes/<name>.toml`` or a (raw or normalised) spec dict."""
+    """A normalised spec from a path, the name of a packaged spec (:func:`spec_path`) or a (raw or normalised) spec dict."""
     if isinstance(spec_or_path, (str, Path)):
         return load_spec(spec_path(spec_or_path))
     if isinstance(spec_or_path, dict):
