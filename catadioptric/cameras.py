@@ -13,6 +13,7 @@ from functools import cached_property
 import numpy as np
 
 from ._checks import CatadioptricError, as_float_array, as_rotation, as_scalar
+from ._numeric import rowdot
 from .mirrors import QuadricMirror
 
 __all__ = ["PinholeCamera", "CatadioptricCamera", "look_at_rotation"]
@@ -182,7 +183,7 @@ class CatadioptricCamera:
 
     def to_camera(self, X_M) -> np.ndarray:
         X = np.asarray(X_M, dtype=float)
-        return (X - self.center) @ self.R_cam_from_mirror.T
+        return rowdot(X - self.center, self.R_cam_from_mirror.T)
 
     def pixels_of_mirror_points(self, X_M) -> np.ndarray:
         return self.pinhole.project(self.to_camera(X_M))

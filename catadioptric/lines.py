@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._checks import CatadioptricError, as_float_array
+from ._numeric import rowdot
 from .cameras import CatadioptricCamera
 from .curves import Piece, trace
 from .projection import solve_targets
@@ -106,8 +107,8 @@ def _line_seeds(cam, q, s, step, max_per_line=256):
     for i in range(len(q)):
         # closest approach of the ray o + t d and the line q + lam s (d, s unit)
         w0 = o - q[i]
-        b = d @ s[i]
-        sw = w0 @ s[i]
+        b = rowdot(d, s[i])
+        sw = rowdot(w0, s[i])
         e = np.sum(d * w0, axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
             t = (b * sw - e) / (1.0 - b * b)

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._checks import as_float_array
+from ._numeric import rowdot
 from .cameras import CatadioptricCamera
 from .mirrors import QuadricMirror
 from .solvers.reflection import reflect
@@ -87,7 +88,7 @@ def intersect_mirror(mirror: QuadricMirror, origins, directions, t_min: float = 
 def backproject(cam: CatadioptricCamera, uv) -> Rays:
     uv = as_float_array(uv, "uv", 2)
     d_cam = cam.pinhole.pixel_rays(uv)
-    d = d_cam @ cam.R_cam_from_mirror  # R^T d_cam, row-vector form
+    d = rowdot(d_cam, cam.R_cam_from_mirror)  # R^T d_cam, row-vector form
     o = np.broadcast_to(cam.center, d.shape)
     t = intersect_mirror(cam.mirror, o, d)
     valid = np.isfinite(t)

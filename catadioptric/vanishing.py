@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._checks import CatadioptricError, as_float_array
+from ._numeric import rowdot
 from .cameras import CatadioptricCamera
 from .projection import solve_targets
 
@@ -191,8 +192,8 @@ def vanishing_curve(cam: CatadioptricCamera, normal, *, max_step_px: float = 1.0
     from .curves import pixel_grid_rays
 
     _, d, ang = pixel_grid_rays(cam, 4)
-    near = np.abs(d @ m) <= 1.5 * ang
-    th = np.mod(np.arctan2(d[near] @ e2, d[near] @ e1), 2 * np.pi)
+    near = np.abs(rowdot(d, m)) <= 1.5 * ang
+    th = np.mod(np.arctan2(rowdot(d[near], e2), rowdot(d[near], e1)), 2 * np.pi)
     if len(th) > 512:
         th = np.sort(th)[np.linspace(0, len(th) - 1, 512).astype(int)]
     pieces = trace(evaluate, [0.0], [2 * np.pi], periodic=True, max_step_px=max_step_px, n_start=n_start,

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._numeric import rowdot
 from .constraints import axial_resultant, reflection_G
 from . import bivariate as bv
 from .polynomial import deflate_linear, polyval, roots_in_unit_interval
@@ -55,13 +56,13 @@ class AxialSolver(ReflectionSolver):
 
     def _candidates(self, h):
         h3 = h[:, 1:]
-        Q = monomials(h3, self._exps) @ self._qmap
+        Q = rowdot(monomials(h3, self._exps), self._qmap)
         ridx, t = roots_in_unit_interval(Q)
         z = self.zt[0] + self.zt[1] * t
         rho2 = self.C - self.A * z * z - self.B * z
         rho = np.sqrt(np.maximum(rho2, 0.0))
         ys = np.stack([rho, -rho], axis=-1)
-        G = (h3[ridx] @ self._gmap).reshape(-1, 3, 5)
+        G = rowdot(h3[ridx], self._gmap).reshape(-1, 3, 5)
         a, b, c = (polyval(G[:, k], t)[:, None] for k in range(3))
         Gv = a * ys**2 + b * ys + c
         # scale: the size of the terms of G (absolute coefficients), not its value at the root

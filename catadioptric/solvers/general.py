@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._numeric import rowdot
 from . import bivariate as bv
 from .constraints import coplanarity, general_resultant, reflected_yz, reflection_G, resultant_quadratic_linear
 from .polynomial import deflate_linear, polyval, roots_in_unit_interval
@@ -82,19 +83,19 @@ class GeneralSolver(ReflectionSolver):
         gen = np.nonzero(~e1)[0]
         hg = h[gen]
         if np.all(hg[:, 3] == 0):
-            Q = monomials(hg, self._exps_dir) @ self._qmap_dir
+            Q = rowdot(monomials(hg, self._exps_dir), self._qmap_dir)
         else:
-            Q = monomials(hg, self._exps) @ self._qmap
+            Q = rowdot(monomials(hg, self._exps), self._qmap)
         ridx, t = roots_in_unit_interval(Q)
         owner = gen[ridx]
         hh = h[owner]
         z = self.zt[0] + self.zt[1] * t
         rho2 = self.C - self.A * z * z - self.B * z
-        G = (hh @ self._gmap).reshape(-1, 3, 5)
+        G = rowdot(hh, self._gmap).reshape(-1, 3, 5)
         y1, y2 = quad_roots(polyval(G[:, 0], t), polyval(G[:, 1], t), polyval(G[:, 2], t))
         ys = np.stack([y1, y1, y2, y2], axis=-1)
         xs = np.sqrt(np.maximum(rho2[:, None] - ys**2, 0.0)) * np.array([1.0, -1.0, 1.0, -1.0])
-        Ec = hh @ self._emap
+        Ec = rowdot(hh, self._emap)
         Ev = polyval(Ec, t)[:, None]
         F1v = (hh[:, 0] * polyval(self._f1, t))[:, None]
         F0v = (hh[:, 0] * polyval(self._f0, t))[:, None]

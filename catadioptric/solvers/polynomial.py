@@ -17,6 +17,8 @@ from math import comb
 
 import numpy as np
 
+from .._numeric import rowdot
+
 __all__ = [
     "polymul",
     "polyadd",
@@ -58,7 +60,7 @@ def polymul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Product of batched polynomials (broadcasting over leading axes)."""
     n, m = p.shape[-1], q.shape[-1]
     outer = p[..., :, None] * q[..., None, :]
-    return outer.reshape(outer.shape[:-2] + (n * m,)) @ _conv_matrix(n, m)
+    return rowdot(outer.reshape(outer.shape[:-2] + (n * m,)), _conv_matrix(n, m))
 
 
 def polyval(p: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -177,12 +179,12 @@ def roots_in_unit_interval(
     live = scale > 0
     if np.all(live):
         pn = p / scale[:, None]
-        b = pn @ _bernstein_matrix(n)
+        b = rowdot(pn, _bernstein_matrix(n))
         idx = np.arange(M)
     else:
         pn = np.zeros_like(p)
         pn[live] = p[live] / scale[live, None]
-        b = pn[live] @ _bernstein_matrix(n)
+        b = rowdot(pn[live], _bernstein_matrix(n))
         idx = np.nonzero(live)[0]
     lo = np.zeros(len(idx))
     width = 1.0

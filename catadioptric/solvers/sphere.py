@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._numeric import rowdot
 from .axial import AxialSolver
 from .reflection import ReflectionSolutions, gather
 
@@ -58,9 +59,9 @@ class SphereSolver:
     def solve_flat(self, targets, w, *, backward=False):
         targets = np.asarray(targets, dtype=float)
         w = np.broadcast_to(np.asarray(w, float), (len(targets),))
-        tf = np.where(w[:, None] > 0, (targets - self.o) @ self.Q.T, targets @ self.Q.T)
+        tf = np.where(w[:, None] > 0, rowdot(targets - self.o, self.Q.T), rowdot(targets, self.Q.T))
         owner, r, fwd = self.axial.solve_flat(tf, w, backward=backward)
-        r = r @ self.Q + self.o
+        r = rowdot(r, self.Q) + self.o
         inside = (r[:, 2] >= self.z_min - 1e-12 * self.R) & (r[:, 2] <= self.z_max + 1e-12 * self.R)
         return owner[inside], r[inside], fwd[inside]
 

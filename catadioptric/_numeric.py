@@ -1,0 +1,49 @@
+"""Numerical helpers shared by the geometry: products that give every row the same bits
+whatever the batch, and norms that neither overflow nor underflow.
+
+* :func:`rowdot` multiplies a batch of rows by a fixed matrix. A BLAS product (``a @ b``)
+  rounds a row differently depending on where the row falls in the blocks the library
+  splits the batch into, and on the number of BLAS threads: the same point projected alone
+  or in a batch, or in a process with another ``OPENBLAS_NUM_THREADS`` (a Dask worker sets
+  it to 1), would get other last bits, which near a degeneracy can decide whether a
+  solution is kept. ``np.einsum`` without ``optimize`` sums each entry in the order of the
+  inner index, without BLAS.
+* :func:`unit` and :func:`norm` divide by the largest component before squaring, so that
+  vectors of any finite length (1e-300 or 1e300) keep their direction.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["rowdot", "unit", "norm", "max_abs"]
+
+
+def rowdot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a @ b`` for rows ``a (..., k)`` and a matrix ``b (k, n)`` or a vector ``b (k,)``, every
+    row rounded the same way whatever the batch it is in (no BLAS)."""
+    b = np.asarray(b, dtype=float)
+    return np.einsum("...k,k->...", a, b) if b.ndim == 1 else np.einsum("...k,kn->...n", a, b)
+
+
+def max_abs(v: np.ndarray, axis: int = -1, keepdims: bool = True) -> np.ndarray:
+    """The largest absolute component along ``axis``."""
+    return np.max(np.abs(v), axis=axis, keepdims=keepdims)
+
+
+def unit(v: np.ndarray, axis: int = -1) -> np.ndarray:
+    """``v / |v|`` along ``axis`` without overflow or underflow (NaN for zero vectors)."""
+    v = np.asarray(v, dtype=float)
+    m = max_abs(v, axis)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = v / m
+        return w / np.linalg.norm(w, axis=axis, keepdims=True)
+
+
+def norm(v: np.ndarray, axis: int = -1) -> np.ndarray:
+    """``|v|`` along ``axis`` without overflow or underflow of the squares (inf only when the
+    length itself is beyond the float range)."""
+    v = np.asarray(v, dtype=float)
+    m = max_abs(v, axis)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        w = np.where(m > 0, v / np.where(m > 0, m, 1.0), 0.0)
+        return (m * np.linalg.norm(w, axis=axis, keepdims=True)).squeeze(axis)
