@@ -1,8 +1,12 @@
 """catadioptric: exact geometry of catadioptric cameras (a pinhole looking at a quadric mirror).
 
 ``import catadioptric`` loads numpy and scipy only; rendering, scenes, plots and
-experiments live in subpackages that load their heavy dependencies lazily.
+experiments live in subpackages that load their heavy dependencies lazily. The
+submodules below (``catadioptric.rigs``, ``.unified``, ``.export``, ...) and
+``catadioptric.Dataset`` are imported on first use.
 """
+import importlib as _importlib
+
 from ._checks import CatadioptricError
 from .cameras import CatadioptricCamera, PinholeCamera, look_at_rotation
 from .frames import RigPose
@@ -21,5 +25,22 @@ __all__ = [
     "backproject",
     "project",
 ]
+
+# imported on first attribute access, so that ``import catadioptric`` stays light
+_SUBMODULES = ("rigs", "rigspec", "unified", "centrality", "vanishing", "lines", "curves", "linefit", "pose",
+               "export", "dataset", "scenes", "render", "validate")
+_ATTRIBUTES = {"Dataset": "dataset"}
+
+
+def __getattr__(name):
+    if name in _SUBMODULES:
+        return _importlib.import_module(f".{name}", __name__)
+    if name in _ATTRIBUTES:
+        return getattr(_importlib.import_module(f".{_ATTRIBUTES[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_SUBMODULES) | set(_ATTRIBUTES))
 
 __version__ = "0.1.0"

@@ -468,9 +468,12 @@ def centrality_report(cam: CatadioptricCamera, directions=None, *, rig: str = "r
 
 # ----------------------------------------------------------------------------- CLI
 def _run(args) -> int:
-    from .rigs import preset
+    from ._extras import require
+    from .cliargs import check_out_dir, resolve_rig
 
-    cam = preset(args.rig, width=args.width, height=args.height)
+    cam, _ = resolve_rig(args.rig, width=args.width, height=args.height)
+    check_out_dir(args.out)
+    require("matplotlib", "catadioptric centrality (its heat map)")  # before the work, not after the JSON
     rep = centrality_report(cam, rig=args.rig, n_directions=args.n_directions, seed=args.seed, step=args.step,
                             fit_step=args.fit_step, vp_method=args.vp_method)
     paths = rep.save(args.out)
@@ -494,15 +497,19 @@ def _run(args) -> int:
 
 
 def register(sub) -> None:
+    from .cliargs import RIG_HELP, nonnegative_int, positive_int
+
     p = sub.add_parser("centrality", help="how far a rig is from central: error of its best unified-model fit")
-    p.add_argument("--rig", default="hyperboloid_9pct", help="rig preset (default: hyperboloid_9pct)")
-    p.add_argument("--out", default="validate/centrality", help="output folder (default: validate/centrality)")
-    p.add_argument("--width", type=int, default=640, help="image width in pixels (default 640)")
-    p.add_argument("--height", type=int, default=480, help="image height in pixels (default 480)")
-    p.add_argument("--step", type=int, default=1, help="pixel stride of the error map (default 1: every pixel)")
-    p.add_argument("--fit-step", type=int, default=4, help="pixel stride of the fit samples (default 4)")
-    p.add_argument("--n-directions", type=int, default=200, help="seeded random directions (default 200)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random directions (default 0)")
+    p.add_argument("--rig", default="hyperboloid_9pct", help=RIG_HELP + " (default: hyperboloid_9pct)")
+    p.add_argument("--out", default="out/centrality",
+                   help="output folder (default: out/centrality; the committed report is validate/centrality)")
+    p.add_argument("--width", type=positive_int, help="image width in pixels (default: the rig's, 640)")
+    p.add_argument("--height", type=positive_int, help="image height in pixels (default: the rig's, 480)")
+    p.add_argument("--step", type=positive_int, default=1, help="pixel stride of the error map (default 1: every pixel)")
+    p.add_argument("--fit-step", type=positive_int, default=4, help="pixel stride of the fit samples (default 4)")
+    p.add_argument("--n-directions", type=nonnegative_int, default=200,
+                   help="seeded random directions (default 200)")
+    p.add_argument("--seed", type=nonnegative_int, default=0, help="seed of the random directions (default 0)")
     p.add_argument("--vp-method", default="auto", choices=["auto", "solver", "extrapolation"],
                    help="exact vanishing points: the solver (catadioptric.vanishing) or extrapolation")
     p.set_defaults(func=_run)

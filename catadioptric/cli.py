@@ -1,10 +1,12 @@
 """The ``catadioptric`` command. Each subcommand lives with its stage and imports its
-heavy dependencies only when it runs."""
+heavy dependencies only when it runs; what they share (one-line errors, ``--rig``,
+checked flags) is in :mod:`catadioptric.cliargs`."""
 from __future__ import annotations
 
-import argparse
 import importlib
 import sys
+
+from .cliargs import Parser, print_error
 
 # modules that define ``register(subparsers)``; each adds its subcommand(s)
 SUBCOMMAND_MODULES = [
@@ -15,8 +17,11 @@ SUBCOMMAND_MODULES = [
 ]
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="catadioptric", description="Exact geometry of catadioptric cameras.")
+def build_parser() -> Parser:
+    from . import __version__
+
+    p = Parser(prog="catadioptric", description="Exact geometry of catadioptric cameras.")
+    p.add_argument("--version", action="version", version=f"catadioptric {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
     for name in SUBCOMMAND_MODULES:
         importlib.import_module(name).register(sub)
@@ -30,10 +35,13 @@ def main(argv=None) -> int:
         return int(args.func(args) or 0)
     except Exception as exc:  # bad input gets a one-line message; real bugs keep their traceback
         from ._checks import CatadioptricError
+        from ._extras import missing_extra
 
+        missing = missing_extra(exc)
+        if missing is not None:
+            return print_error(str(missing))
         if isinstance(exc, CatadioptricError):
-            print(f"catadioptric: error: {exc}", file=sys.stderr)
-            return 2
+            return print_error(str(exc))
         raise
 
 

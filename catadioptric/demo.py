@@ -7,11 +7,17 @@ import time
 
 import numpy as np
 
-from .rigs import preset
 
 
 def run_geometry_demo(out_dir: str, rig: str = "hyperboloid_9pct") -> dict:
-    cam = preset(rig)
+    """Back-project and forward-project a pixel grid of ``rig`` (a rig name or a rig spec file, as
+    every ``--rig``), print the figures and draw the exact images of a box's edges into
+    ``out_dir/line_images.png`` (needs the extra ``plot``)."""
+    from ._extras import require
+    from .cliargs import resolve_rig
+
+    cam, _ = resolve_rig(rig, flag="rig")
+    require("matplotlib", "the geometry demo (its figure)")
     os.makedirs(out_dir, exist_ok=True)
     m = cam.mirror
     print(f"rig {rig}: {m.kind} A={m.A:.4g} B={m.B:.4g} C={m.C:.4g} z in [{m.z_min}, {m.z_max}], "
@@ -87,20 +93,29 @@ def run_main_job(out_dir: str, *, renderer: str = "mitsuba", scene: str = "urban
 
 
 def register(sub) -> None:
+    from .cliargs import RIG_HELP, nonnegative_float
+
     d = sub.add_parser("demo", help="the main job: render an image pair and validate the relative rotation "
                                     "(--geometry: the geometry demo only)")
     d.add_argument("--out", default="out/demo", help="output folder (default: out/demo)")
     d.add_argument("--renderer", default="mitsuba", choices=["mitsuba", "povray"], help="renderer (default mitsuba)")
     d.add_argument("--scene", default="urban_street", help="scene spec (default urban_street)")
-    d.add_argument("--noise", type=float, default=2.0, help="pixel noise of the line pixels (default 2, as the paper)")
+    d.add_argument("--noise", type=nonnegative_float, default=2.0,
+                   help="pixel noise of the line pixels (default 2, as the paper)")
     d.add_argument("--resolution", help="render resolution (name or WxH; default the rig's 640x480)")
     d.add_argument("--geometry", action="store_true", help="run the geometry demo only (no rendering)")
-    d.add_argument("--rig", default="hyperboloid_9pct", help="rig preset of the geometry demo")
+    d.add_argument("--rig", default="hyperboloid_9pct", help=RIG_HELP + ", of the geometry demo")
 
     def run(args):
+        from .cliargs import check_out_dir, parse_resolution, resolve_rig
+
+        check_out_dir(args.out)
         if args.geometry:
+            resolve_rig(args.rig)  # errors name --rig
             run_geometry_demo(args.out, rig=args.rig)
             return 0
+        if args.resolution:
+            parse_resolution(args.resolution)  # a bad size fails before anything runs
         return run_main_job(args.out, renderer=args.renderer, scene=args.scene, noise=args.noise,
                             resolution=args.resolution)
 

@@ -174,7 +174,7 @@ def test_command_errors(tmp_path, capsys):
     assert "quality: expected one of ['draft', 'high', 'standard'] or a .toml file, got 'ultra'" in \
            capsys.readouterr().err
     assert main(["render", "no_such_scene", "--out", out]) == 2
-    assert "spec: expected a scene spec file or one of" in capsys.readouterr().err
+    assert "catadioptric: error: SPEC: expected a scene spec file or one of" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         main(["render", "builtin:test_street", "--out", out, "--workers", "0"])
     assert "--workers: expected a positive integer, got '0'" in capsys.readouterr().err

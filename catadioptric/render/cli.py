@@ -1,13 +1,13 @@
 """``catadioptric render``: render a scene spec's views into a dataset folder.
 
-    catadioptric render SPEC --renderer mitsuba|povray --out DIR [--rig NAME_OR_FILE]
+    catadioptric render SPEC --renderer mitsuba|povray --out DIR [--rig RIG]
                         [--quality PRESET] [--resolution NAME|WxH] [--seed N] [--views A,B]
                         [--workers N] [--scheduler ADDRESS] [--line-images core|sampled]
 
-SPEC is a scene spec file or a name in ``scenes/`` (``catadioptric.scenes``); the
-special name ``builtin:test_street`` is the renderers' own test scene
-(:mod:`catadioptric.render.testscene`). The rig is ``--rig`` (a name of ``render/rigs``
-or a preset, or a rig spec file) or else the one the scene spec names.
+SPEC is a scene spec file or the name of a packaged spec (``urban_street``, ...:
+``catadioptric.scenes.spec_names()``); the special name ``builtin:test_street`` is the
+renderers' own test scene (:mod:`catadioptric.render.testscene`). The rig is ``--rig`` (a rig
+name or a rig spec file, as for every ``--rig``) or else the one the scene spec names.
 """
 from __future__ import annotations
 
@@ -19,12 +19,11 @@ BUILTIN = "builtin:test_street"
 
 
 def _load(args):
-    """Scene, views, camera and rig description from the command line."""
+    """Scene, views, camera and rig description from the command line (errors name the flag)."""
     from .._checks import CatadioptricError
-    from ..rigspec import load_rig, load_rig_spec
-    from .common import load_resolution
+    from ..cliargs import flag_error, parse_resolution, resolve_rig
 
-    w, h = load_resolution(args.resolution) if args.resolution else (None, None)
+    w, h = parse_resolution(args.resolution) if args.resolution else (None, None)
     if args.spec == BUILTIN:
         from .testscene import street_scene, street_views
 
@@ -35,18 +34,16 @@ def _load(args):
         from ..scenes import build_scene, spec_path
         from ..scenes import views as scene_views
 
-        scene = build_scene(spec_path(args.spec), seed=args.seed)
+        try:
+            scene = build_scene(spec_path(args.spec), seed=args.seed)
+        except CatadioptricError as exc:
+            raise flag_error("SPEC", exc, "spec") from None
         views = scene_views(scene.spec)
         rig_name = args.rig
     if rig_name is not None:
-        cam = load_rig(rig_name, width=w, height=h)
-        rig = {"name": rig_name, "spec": load_rig_spec(rig_name)}
+        cam, rig = resolve_rig(rig_name, width=w, height=h)
     else:
-        from ..scenes import scene_rig
-
-        cam = scene_rig(scene.spec, width=w, height=h)
-        r = scene.spec.get("rig")
-        rig = {"name": r if isinstance(r, str) else "inline", "spec": r if isinstance(r, dict) else None}
+        cam, rig = _scene_rig(scene.spec, w, h)
     if args.views:
         want = [v.strip() for v in args.views.split(",") if v.strip()]
         have = dict(views)
@@ -57,10 +54,36 @@ def _load(args):
     return scene, views, cam, rig
 
 
+def _scene_rig(spec: dict, w, h):
+    """The camera of the rig a scene spec names and its description, with the normalised rig spec
+    (``manifest.rig.spec``) whether the spec names it, points to a file or inlines it."""
+    from pathlib import Path
+
+    from ..rigspec import load_rig_spec
+    from ..scenes import scene_rig
+
+    cam = scene_rig(spec, width=w, height=h)
+    r = spec.get("rig")
+    if isinstance(r, dict):
+        return cam, {"name": r.get("name", "inline"), "spec": r}
+    base = Path(spec["source"]).parent if spec.get("source") else None
+    return cam, {"name": r, "spec": load_rig_spec(r, base_dir=base)}
+
+
 def run(args) -> int:
+    from .._checks import CatadioptricError
+    from ..cliargs import check_out_dir, check_scheduler, flag_error
+    from .common import load_quality
     from .dataset import render_dataset
 
     scene, views, cam, rig = _load(args)
+    try:
+        load_quality(args.quality)
+    except CatadioptricError as exc:
+        raise flag_error("--quality", exc, "quality") from None
+    check_out_dir(args.out)
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler)
     manifest = render_dataset(scene, views, cam, args.out, renderer=args.renderer, quality=args.quality,
                               workers=args.workers, scheduler=args.scheduler, rig=rig,
                               progress=not args.no_progress, line_images=args.line_images)
@@ -72,34 +95,24 @@ def run(args) -> int:
     return 0
 
 
-def _positive_int(s: str) -> int:
-    import argparse
-
-    try:
-        v = int(s)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {s!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {s!r}")
-    return v
-
-
 def register(sub) -> None:
+    from ..cliargs import RIG_HELP, nonnegative_int, positive_int
+
     p = sub.add_parser("render", help="render a scene spec's views (beauty, exact labels, ground truth) into a "
                                       "dataset folder", description=__doc__.split("\n\n")[0])
-    p.add_argument("spec", metavar="SPEC", help=f"scene spec file or name in scenes/ (or {BUILTIN})")
+    p.add_argument("spec", metavar="SPEC", help=f"scene spec file or the name of a packaged spec (or {BUILTIN})")
     p.add_argument("--renderer", choices=["mitsuba", "povray"], default="mitsuba",
                    help="mitsuba (default, in-process) or povray (the povray binary)")
     p.add_argument("--out", required=True, metavar="DIR", help="dataset folder (created; reruns resume)")
-    p.add_argument("--rig", metavar="NAME_OR_FILE", help="rig name (render/rigs, presets) or rig spec file "
-                                                         "(default: the rig the scene spec names)")
+    p.add_argument("--rig", metavar="RIG", help=RIG_HELP + " (default: the rig the scene spec names)")
     p.add_argument("--quality", default="standard", metavar="PRESET",
-                   help="draft | standard | high (render/quality.toml) or a TOML file (default: standard)")
+                   help="draft | standard | high (the packaged quality.toml) or a TOML file (default: standard)")
     p.add_argument("--resolution", metavar="NAME|WxH",
-                   help="tiny | small | vga | hd (render/resolution.toml) or WIDTHxHEIGHT (default: the rig's)")
-    p.add_argument("--seed", type=int, help="scene seed (default: the spec's)")
+                   help="tiny | small | vga | hd (the packaged resolution.toml) or WIDTHxHEIGHT, at most "
+                        "4096x4096 pixels in all (default: the rig's)")
+    p.add_argument("--seed", type=nonnegative_int, help="scene seed (default: the spec's)")
     p.add_argument("--views", metavar="A,B", help="render only these views (comma-separated names)")
-    p.add_argument("--workers", type=_positive_int, default=1, metavar="N",
+    p.add_argument("--workers", type=positive_int, default=1, metavar="N",
                    help="render N views in parallel in local processes (default 1)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run the views on this Dask scheduler instead "
                                                           "(e.g. tcp://127.0.0.1:8786)")

@@ -3,6 +3,7 @@ the label encoding of PNG files, and atomic file writes."""
 from __future__ import annotations
 
 import os
+import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,12 +18,17 @@ from .tracer import LABEL_MIRROR_AGAIN, LABEL_NO_MIRROR, LABEL_SKY
 
 __all__ = ["RenderError", "RenderResult", "load_quality", "load_resolution", "rescale_camera", "check_view",
            "sky_radiance", "linear_to_srgb8", "encode_labels_png", "decode_labels_png", "atomic_write_bytes",
-           "atomic_write_json", "jsonable", "PRESET_DIR", "MAX_LABEL", "LABEL_SKY", "LABEL_NO_MIRROR", "LABEL_MIRROR_AGAIN"]
+           "atomic_write_json", "jsonable", "PRESET_DIR", "MAX_LABEL", "MAX_PIXELS", "LABEL_SKY", "LABEL_NO_MIRROR", "LABEL_MIRROR_AGAIN"]
 
 # the packaged presets quality.toml and resolution.toml (catadioptric/data, read with importlib.resources)
 PRESET_DIR = data_path()
 # labels are stored in 16-bit PNGs; the two top values stand for -1 and -2
 MAX_LABEL = 65533
+# the largest image a view may have: rendering, tracing and the ground truth of a view took about
+# BYTES_PER_PIXEL bytes per pixel at the peak (urban_street, 320x240 -> 1280x960, any quality preset:
+# 0.40 -> 0.63 GB), so 4096 x 4096 pixels need about 3.5 GB
+MAX_PIXELS = 4096 * 4096
+BYTES_PER_PIXEL = 200
 
 _QUALITY_KEYS = {"povray_antialias": float, "povray_aa_depth": int, "mitsuba_spp": int, "max_depth": int,
                  "shadows": bool}
@@ -94,17 +100,23 @@ def load_quality(preset="standard") -> dict:
 
 
 def load_resolution(spec) -> tuple[int, int]:
-    """``(width, height)`` from a name in ``render/resolution.toml`` or ``"WIDTHxHEIGHT"``."""
+    """``(width, height)`` from a name in the packaged ``resolution.toml`` or ``"WIDTHxHEIGHT"``:
+    each side in [8, 16384] pixels and at most :data:`MAX_PIXELS` pixels in all."""
     s = str(spec).strip()
-    if "x" in s and s.replace("x", "").isdigit():
-        w, h = (int(p) for p in s.split("x"))
+    m = re.fullmatch(r"(\d+)x(\d+)", s)
+    if m:
+        w, h = int(m.group(1)), int(m.group(2))
     else:
         table = _read_toml(PRESET_DIR / "resolution.toml", "resolution")
         if s not in table:
-            raise CatadioptricError(f"resolution: expected one of {sorted(table)} or WIDTHxHEIGHT, got {s!r}")
+            raise CatadioptricError(f"resolution: expected one of {sorted(table)} or WIDTHxHEIGHT (two positive "
+                                    f"integers, e.g. 640x480), got {s!r}")
         w, h = table[s]["width"], table[s]["height"]
     if not (isinstance(w, int) and isinstance(h, int) and 8 <= w <= 16384 and 8 <= h <= 16384):
         raise CatadioptricError(f"resolution: expected a size between 8 and 16384 pixels, got {w!r}x{h!r}")
+    if w * h > MAX_PIXELS:
+        raise CatadioptricError(f"resolution: expected at most {MAX_PIXELS} pixels (4096x4096; a view takes about "
+                                f"{BYTES_PER_PIXEL} bytes of memory per pixel), got {w}x{h} = {w * h}")
     return w, h
 
 

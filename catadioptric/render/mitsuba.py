@@ -89,7 +89,12 @@ def mitsuba_variant() -> str:
         os.environ[ENV] = v
     if v not in mi.variants():
         raise RenderError(f"{ENV}: expected one of {mi.variants()}, got {v!r}")
-    mi.set_variant(v)
+    try:
+        mi.set_variant(v)
+    except Exception as exc:  # e.g. a cuda variant without a GPU: ImportError from drjit
+        why = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise RenderError(f"{ENV}: the Mitsuba variant {v!r} does not run here ({why}); unset {ENV} to use "
+                          f"{PREFERRED} (or {FALLBACK} when llvm is missing)") from None
     _variant = v
     return v
 
