@@ -285,16 +285,63 @@ def test_omnidir_mapping(source):
     ok = ours.in_image
     assert ok.sum() > 200
     assert np.max(np.linalg.norm(ours.uv[ok] - ref[ok], axis=-1)) < 1e-9
-    if hasattr(cv2, "omnidir"):
-        img, _ = cv2.omnidir.projectPoints(X[ok].reshape(-1, 1, 3), np.array(om["rvec"]), np.array(om["tvec"]),
-                                           np.array(om["K"]), om["xi"], np.zeros(4))
-        assert np.max(np.abs(img.reshape(-1, 2) - ours.uv[ok])) < 1e-6
+    img, _ = cv2.omnidir.projectPoints(X[ok].reshape(-1, 1, 3), np.array(om["rvec"]), np.array(om["tvec"]),
+                                       np.array(om["K"]), om["xi"], np.zeros(4))
+    assert np.max(np.abs(img.reshape(-1, 2) - ours.uv[ok])) < 1e-9
     # and back
     v = UnifiedCamera.from_omnidir(om["K"], om["xi"], om["rvec"], om["tvec"], om["D"])
     np.testing.assert_allclose(v.project(X).uv[ok], ours.uv[ok], atol=1e-9)
     # the reference is not vacuous: distortion moves the pixels
     moved = _omnidir_reference(X[ok], om["rvec"], om["tvec"], om["K"], om["xi"], (0.1, 0.0, 0.0, 0.01))
     assert np.max(np.linalg.norm(moved - ours.uv[ok], axis=-1)) > 1.0
+
+
+def test_opencv_is_the_contrib_wheel_alone():
+    """cv2.omnidir comes with opencv-contrib-python-headless only; the OpenCV wheels share one cv2
+    folder, so exactly one of them may be installed (make fixes an older .venv: tools/one-opencv.sh)."""
+    from importlib.metadata import distributions
+
+    opencv = sorted({d.metadata["Name"].lower() for d in distributions()
+                     if (d.metadata["Name"] or "").lower().startswith("opencv")})
+    assert opencv == ["opencv-contrib-python-headless"], f"expected only the contrib wheel, got {opencv}"
+    assert hasattr(cv2, "omnidir"), "cv2.omnidir is missing: pip install opencv-contrib-python-headless"
+
+
+@pytest.mark.parametrize("name", CENTRAL)
+def test_omnidir_undistort_points_and_rectification_map(name):
+    """On a central rig, OpenCV's own omnidir functions agree with the exact rig through the exported
+    parameters: cv2.omnidir.undistortPoints lifts each pixel onto the exact ray (it returns the
+    perspective coordinates (x_s / z_s, y_s / z_s) of the sphere point), and
+    cv2.omnidir.initUndistortRectifyMap (RECTIFY_PERSPECTIVE, new camera P) samples each pixel of a
+    perspective view at the exact image of its direction ``R^T P^-1 (u, v, 1)``."""
+    cam = preset(name)
+    u = unified_from_central(cam)
+    assert u.is_pure
+    om = u.to_omnidir()
+    K, D, xi = np.array(om["K"]), np.zeros((1, 4)), np.array([[om["xi"]]])
+    uv = cam.pinhole.pixel_grid(8).reshape(-1, 2)
+    exact = cam.backproject(uv)
+    ok = exact.valid
+    assert ok.sum() > 500
+    und = cv2.omnidir.undistortPoints(uv[ok].reshape(-1, 1, 2), K, D, xi, np.eye(3)).reshape(-1, 2)
+    Xs = exact.directions[ok] @ u.R_sphere_from_mirror.T  # the exact rays in the omnidir camera frame
+    line = np.concatenate([und, np.ones((len(und), 1))], -1)  # the ray's line, sign of z_s dropped
+    sin = np.linalg.norm(np.cross(line, Xs), axis=-1) / np.linalg.norm(line, axis=-1)
+    assert np.max(sin) < 1e-9
+    # the rectification map of a perspective view looking along the sphere's axis
+    P = np.array([[150.0, 0.0, 159.5], [0.0, 150.0, 119.5], [0.0, 0.0, 1.0]])
+    m1, m2 = cv2.omnidir.initUndistortRectifyMap(K, D, xi, np.eye(3), P, (320, 240), cv2.CV_32FC1,
+                                                 cv2.omnidir.RECTIFY_PERSPECTIVE)
+    rows, cols = np.mgrid[0:240:7, 0:320:7]
+    d = np.stack([cols, rows, np.ones_like(cols)], -1).reshape(-1, 3).astype(float) @ np.linalg.inv(P).T
+    pr = cam.project(cam.viewpoint + 1e3 * (d / np.linalg.norm(d, axis=-1, keepdims=True)) @ u.R_sphere_from_mirror)
+    seen = pr.valid.any(-1) & cam.pinhole.in_image(np.nan_to_num(pr.uv[:, 0], nan=-1e9))
+    assert seen.sum() > 300
+    want = pr.uv[seen, 0]
+    got = np.stack([m1[rows, cols].reshape(-1)[seen], m2[rows, cols].reshape(-1)[seen]], -1)
+    # the map is float32 (about 3e-5 px at these coordinates); the rig is central, so a point 1 km along a
+    # direction from the viewpoint has the pixel of the direction itself
+    assert np.max(np.linalg.norm(got - want, axis=-1)) < 1e-3
 
 
 def test_fit_recovers_central_rig_from_a_perturbed_start():
