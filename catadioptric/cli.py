@@ -14,6 +14,7 @@ SUBCOMMAND_MODULES = [
     "catadioptric.centrality",
     "catadioptric.render.cli",
     "catadioptric.validate.cli",
+    "catadioptric.export",
 ]
 
 

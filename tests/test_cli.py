@@ -50,7 +50,7 @@ def test_rigs_is_an_attribute_of_the_package():
     ["render", "tiny_street", "--out", "OUT"],
     ["centrality", "--out", "OUT"],
     ["demo", "--geometry", "--out", "OUT"],
-    # EXPORT_CASE
+    ["export", "--format", "opencv"],
 ])
 def test_every_rig_flag_takes_a_name_or_a_file_and_names_the_flag(argv, capsys, tmp_path):
     argv = [str(tmp_path / "o") if a == "OUT" else a for a in argv]
