@@ -24,6 +24,7 @@ __all__ = [
     "Projections",
     "backproject",
     "project",
+    "Dataset",
 ]
 
 # imported on first attribute access, so that ``import catadioptric`` stays light

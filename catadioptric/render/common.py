@@ -40,11 +40,13 @@ class RenderError(CatadioptricError):
 
 @dataclass
 class RenderResult:
-    """One rendered view: ``beauty (H, W, 3)`` RGB uint8, ``labels (H, W)`` int32, and facts about the run."""
+    """One rendered view: ``beauty (H, W, 3)`` RGB uint8, ``labels (H, W)`` int32, and facts about the run;
+    ``linear``: the beauty in linear RGB floats before 8-bit quantisation (Mitsuba), else None."""
 
     beauty: np.ndarray
     labels: np.ndarray
     info: dict = field(default_factory=dict)
+    linear: np.ndarray | None = None
 
 
 # ------------------------------------------------------------------------ presets

@@ -55,6 +55,7 @@ class ViewTask:
     scene_digest: str
     threads: int | None = None
     line_images: str = "core"
+    extras: tuple = ()  # optional outputs (catadioptric.render.extras)
 
 
 def _sha256(path) -> str:
@@ -65,7 +66,7 @@ def _sha256(path) -> str:
     return h.hexdigest()
 
 
-def view_status(folder: str, fingerprint: str) -> str:
+def view_status(folder: str, fingerprint: str, extra_files=()) -> str:
     """``done`` (marker matches parameters and every file's checksum), ``stale`` (rendered with
     other parameters), ``broken`` (marker missing, unreadable or a file differs) or ``missing``."""
     if not os.path.isdir(folder):
@@ -78,7 +79,7 @@ def view_status(folder: str, fingerprint: str) -> str:
     if marker.get("fingerprint") != fingerprint:
         return "stale"
     files = marker.get("files", {})
-    if set(files) != set(FILES):
+    if set(files) != set(FILES) | set(extra_files):
         return "broken"
     for name, digest in files.items():
         p = os.path.join(folder, name)
@@ -162,6 +163,10 @@ def render_view_files(scene, task: ViewTask) -> dict:
         "preview.png": png(np.ascontiguousarray(preview_image(res.beauty, gt, scene)[..., ::-1]),
                            cv2.IMWRITE_PNG_COMPRESSION, 6),
     }
+    if task.extras:
+        from .extras import extra_blobs
+
+        blobs.update(extra_blobs(task.extras, res, traced, pose))
     for name, data in blobs.items():
         atomic_write_bytes(os.path.join(task.folder, name), data)
     atomic_write_json(os.path.join(task.folder, MARKER), {
@@ -215,13 +220,15 @@ def _versions(renderer: str) -> dict:
 
 # ------------------------------------------------------------------ the dataset
 def render_dataset(scene, views, cam, out_dir, *, renderer: str = "mitsuba", quality="standard", workers: int = 1,
-                   scheduler=None, rig: dict | None = None, progress: bool = True, line_images: str = "core") -> dict:
+                   scheduler=None, rig: dict | None = None, progress: bool = True, line_images: str = "core",
+                   extras=()) -> dict:
     """Render every view ``(name, RigPose)`` of ``scene`` seen by the rig ``cam`` into ``out_dir``.
 
     ``workers > 1`` renders views in a local process pool; ``scheduler`` (a Dask scheduler
     address such as ``tcp://127.0.0.1:8786``, or a ``distributed.Client``) runs them on a
     Dask cluster instead. Finished views are skipped (see :func:`view_status`). ``line_images``:
     how the ground truth's line images are computed (:func:`catadioptric.render.groundtruth.ground_truth`).
+    ``extras``: optional outputs among ``rays``, ``beauty16``, ``mesh`` (:mod:`catadioptric.render.extras`).
     Returns the manifest (also written to ``out_dir/manifest.json``).
     """
     from ..cameras import CatadioptricCamera
@@ -235,6 +242,10 @@ def render_dataset(scene, views, cam, out_dir, *, renderer: str = "mitsuba", qua
         raise CatadioptricError(f"workers: expected an integer >= 1, got {workers!r}")
     if line_images not in LINE_IMAGES:
         raise CatadioptricError(f"line_images: expected one of {sorted(LINE_IMAGES)}, got {line_images!r}")
+    from .extras import EXTRA_FILES, check_extras
+
+    extras = check_extras(extras, renderer)
+    extra_files = [EXTRA_FILES[e] for e in extras if e in EXTRA_FILES]
     q = load_quality(quality)
     views = list(views)
     if not views:
@@ -265,12 +276,14 @@ def render_dataset(scene, views, cam, out_dir, *, renderer: str = "mitsuba", qua
         seed = _view_seed(scene.seed, name)
         params = {"format": FORMAT, "renderer": renderer, "quality": q, "camera": cam.to_dict(),
                   "pose": pose.to_dict(), "scene": digest, "seed": seed, "line_images": line_images}
+        if extras:  # absent when none, so that the fingerprints of plain datasets do not change
+            params["extras"] = list(extras)
         fp = _fingerprint(params)
         folder = os.path.join(out_dir, name)
         tasks.append(ViewTask(name, folder, renderer, q, cam.to_dict(), pose.to_dict(), seed, fp, digest, threads,
-                              line_images))
+                              line_images, extras))
         entries.append({"name": name, "folder": name, "seed": seed, "pose": pose.to_dict(), "fingerprint": fp})
-    status = {t.name: view_status(t.folder, t.fingerprint) for t in tasks}
+    status = {t.name: view_status(t.folder, t.fingerprint, extra_files) for t in tasks}
     todo = [t for t in tasks if status[t.name] != "done"]
     results = {}
     t0 = time.perf_counter()
@@ -295,18 +308,24 @@ def render_dataset(scene, views, cam, out_dir, *, renderer: str = "mitsuba", qua
         e["label_differing_pixels"] = ag["differing_pixels"]
         agreement[t.name] = ag["differing_pixels"]
     total_px = cam.pinhole.width * cam.pinhole.height * len(tasks)
+    scene_info = {}
+    if "mesh" in extras:
+        from .extras import MESH_FILE, scene_ply
+
+        atomic_write_bytes(os.path.join(out_dir, MESH_FILE), scene_ply(scene))
+        scene_info = {"mesh": MESH_FILE}
     manifest = {
         "format": FORMAT,
         "scene": {"name": scene.name, "seed": int(scene.seed), "digest": digest, "spec": jsonable(scene.spec),
                   "objects": len(scene.objects), "segments": int(len(scene.segments)),
                   "families": int(len(scene.families)),
-                  "triangles": int(sum(len(o.faces) for o in scene.objects))},
+                  "triangles": int(sum(len(o.faces) for o in scene.objects)), **scene_info},
         "rig": {**jsonable(rig or {}), "camera": cam.to_dict()},
         "renderer": {"name": renderer, "quality": q},
         "line_images": line_images,
         "versions": versions,
         **_git_commit(),
-        "files": list(FILES) + [MARKER],
+        "files": list(FILES) + extra_files + [MARKER],
         "labels": {"sky": 0, "no_mirror": -1, "mirror_again": -2,
                    "png": "uint16; 0..65533 as is, 65535 = -1, 65534 = -2"},
         "views": entries,

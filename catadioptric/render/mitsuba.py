@@ -347,8 +347,9 @@ def render_mitsuba(scene, cam, pose, quality="standard", *, seed: int = 0, beaut
     if beauty:
         t0 = time.perf_counter()
         img = mi.render(mscene, sensor=sensor, seed=int(seed) & 0xFFFFFFFF, spp=int(q["mitsuba_spp"]))
-        rgb = linear_to_srgb8(np.asarray(img, dtype=np.float64)[..., :3])
+        linear = np.asarray(img, dtype=np.float64)[..., :3]
+        rgb = linear_to_srgb8(linear)
         info["seconds_beauty"] = time.perf_counter() - t0
     else:
-        rgb = np.zeros((cam.pinhole.height, cam.pinhole.width, 3), np.uint8)
-    return RenderResult(rgb, labels, info)
+        rgb, linear = np.zeros((cam.pinhole.height, cam.pinhole.width, 3), np.uint8), None
+    return RenderResult(rgb, labels, info, linear)
