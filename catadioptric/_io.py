@@ -1,13 +1,14 @@
 """Atomic file writes and JSON-safe values, shared by datasets, reports and benchmarks."""
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import tempfile
 
 import numpy as np
 
-__all__ = ["atomic_write_bytes", "atomic_write_json", "jsonable"]
+__all__ = ["atomic_write_bytes", "atomic_write_json", "jsonable", "sha256_file"]
 
 
 def _umask() -> int:
@@ -58,3 +59,12 @@ def jsonable(x):
 
 def atomic_write_json(path, obj, *, indent: int = 1) -> None:
     atomic_write_bytes(path, (json.dumps(jsonable(obj), indent=indent, allow_nan=False) + "\n").encode())
+
+
+def sha256_file(path) -> str:
+    """The SHA-256 (hex) of a file's bytes, read in blocks."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()

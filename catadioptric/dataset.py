@@ -14,7 +14,6 @@ that says which and how to repair it (rerun the ``render`` command: it resumes).
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 from collections.abc import Mapping, Sequence
@@ -22,6 +21,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from ._checks import CatadioptricError
+from ._io import sha256_file
 
 __all__ = ["Dataset", "DatasetView", "VIEW_KEYS"]
 
@@ -31,14 +31,6 @@ DATASET_FORMAT = "catadioptric-dataset/1"
 #: ``ray_directions`` (``rays.npz``) and ``beauty16`` (``beauty16.png``) when the dataset has them.
 VIEW_KEYS = ("name", "folder", "camera", "pose", "beauty", "labels", "label_ambiguous", "groundtruth", "arrays",
              "objects", "lines", "families", "curves", "vanishing_points", "ground_curve")
-
-
-def _sha256(path: str) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 def _read_json(path: str, what: str) -> dict:
@@ -154,7 +146,7 @@ class DatasetView(Mapping):
             p = os.path.join(self.folder, fname)
             if not os.path.isfile(p):
                 raise CatadioptricError(f"dataset: {where}: {fname} is missing; {rerun}")
-            if self.dataset.verify and _sha256(p) != digest:
+            if self.dataset.verify and sha256_file(p) != digest:
                 raise CatadioptricError(f"dataset: {where}: {fname} differs from the file the render wrote "
                                         f"(SHA-256 mismatch: altered or corrupted); {rerun}")
         self._checked = True

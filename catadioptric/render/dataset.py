@@ -27,7 +27,7 @@ import numpy as np
 
 from .._checks import CatadioptricError
 from ..frames import RigPose
-from .._io import atomic_write_bytes, atomic_write_json, jsonable
+from .._io import atomic_write_bytes, atomic_write_json, jsonable, sha256_file
 from .common import RenderError, encode_labels_png, load_quality
 from .tracer import scene_digest
 
@@ -58,12 +58,7 @@ class ViewTask:
     extras: tuple = ()  # optional outputs (catadioptric.render.extras)
 
 
-def _sha256(path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
+_sha256 = sha256_file
 
 
 def view_status(folder: str, fingerprint: str, extra_files=()) -> str:
