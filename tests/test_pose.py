@@ -3,8 +3,8 @@ import pytest
 
 import catadioptric as cd
 from catadioptric.lines import pluecker
-from catadioptric.pose import (relative_rotation, rotation_angle_deg, rotation_from_directions,
-                               rotation_with_sign_search, translation_from_lines)
+from catadioptric.pose import (refine_rotation, rotation_angle_deg, rotation_from_directions, sign_candidates,
+                               translation_from_lines)
 from catadioptric.rigs import preset
 
 
@@ -20,16 +20,55 @@ def test_procrustes_recovers_rotation_and_handles_two_directions():
     assert np.allclose(rotation_from_directions(a, a @ R.T), R)
     assert np.allclose(rotation_from_directions(a[:2], a[:2] @ R.T), R)  # minimal case
     assert np.isclose(np.linalg.det(rotation_from_directions(a, a @ R.T)), 1)
+    # huge and tiny vectors are directions like any other
+    assert np.allclose(rotation_from_directions(a * 1e200, a @ R.T * 1e-200), R)
 
 
-def test_sign_search():
+def test_refined_rotation_covariance_matches_monte_carlo():
+    rng = np.random.default_rng(3)
+    R = _rot(rng)
+    a = rng.normal(size=(6, 3))
+    a /= np.linalg.norm(a, axis=1, keepdims=True)
+    sig = np.radians(0.5)
+    P = np.eye(3)[None] - a[:, :, None] * a[:, None, :]
+    C = sig**2 * P
+    errs = []
+    for _ in range(300):
+        an = a + rng.normal(size=a.shape) * sig
+        bn = a @ R.T + rng.normal(size=a.shape) * sig
+        fit = refine_rotation(an, bn, C, np.array([R @ c @ R.T for c in C]), robust=False)
+        w = fit.R @ R.T
+        errs.append(0.5 * np.array([w[2, 1] - w[1, 2], w[0, 2] - w[2, 0], w[1, 0] - w[0, 1]]))
+    mc = np.cov(np.array(errs).T)
+    assert 0.7 < np.trace(mc) / np.trace(fit.cov) < 1.4
+
+
+def test_a_family_fitted_far_off_cannot_pull_the_robust_rotation():
+    rng = np.random.default_rng(4)
+    R = _rot(rng)
+    a = np.eye(3)[[0, 1, 2, 0]] + [[0, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0.3, 0.1]]
+    a /= np.linalg.norm(a, axis=1, keepdims=True)
+    b = a @ R.T
+    b[3] = np.array([0.2, 0.9, 0.4]) / np.linalg.norm([0.2, 0.9, 0.4])  # 40+ degrees off, claimed precise
+    C = np.array([np.eye(3) * 1e-6] * 4)
+    fit = refine_rotation(a, b, C, C)
+    assert rotation_angle_deg(fit.R @ R.T) < 1e-3 and fit.weights[3] < 1e-3
+
+
+def test_sign_candidates_of_an_orthogonal_triad_are_the_four_half_turns():
     rng = np.random.default_rng(1)
     R = _rot(rng)
-    a = rng.normal(size=(4, 3))
-    b = (a @ R.T) * np.array([1, -1, 1, -1])[:, None]
-    R2, signs = rotation_with_sign_search(a, b)
-    assert np.allclose(R2, R) and np.allclose(signs, [1, -1, 1, -1])
-    assert rotation_angle_deg(relative_rotation(a, b) @ R.T) < 1e-6
+    a = np.eye(3)
+    C = np.array([np.eye(3) * 1e-8] * 3)
+    cands = sign_candidates(a, a @ R.T, C, C)
+    # identity pattern and the three half-turns fit exactly; the reflections do not
+    assert len(cands) == 4
+    angles = sorted(rotation_angle_deg(c.R @ R.T) for c in cands)
+    assert angles[0] < 1e-6 and np.allclose(angles[1:], 180.0, atol=1e-6)
+    # known signs: one candidate, nothing searched
+    signs = np.array([1.0, -1.0, 1.0])
+    one = sign_candidates(a, (a @ R.T) * signs[:, None], C, C, signs=signs)
+    assert len(one) == 1 and rotation_angle_deg(one[0].R @ R.T) < 1e-6
 
 
 def test_translation_from_lines_with_exact_pixels():
@@ -55,9 +94,22 @@ def test_translation_from_lines_with_exact_pixels():
 
 
 def test_pose_errors():
-    with pytest.raises(cd.CatadioptricError, match=r"a: expected at least 2 directions, got 1"):
+    E = cd.CatadioptricError
+    with pytest.raises(E, match=r"a: expected at least 2 directions, got 1"):
         rotation_from_directions(np.ones((1, 3)), np.ones((1, 3)))
-    with pytest.raises(cd.CatadioptricError, match=r"a, b: expected the same number of directions, got 2 and 3"):
+    with pytest.raises(E, match=r"a, b: expected the same number of directions, got 2 and 3"):
         rotation_from_directions(np.ones((2, 3)), np.ones((3, 3)))
-    with pytest.raises(cd.CatadioptricError, match=r"ray_lines: expected at least 3 rays, got 2"):
+    with pytest.raises(E, match=r"a, b: expected two non-parallel directions, got parallel \(or antiparallel\)"):
+        rotation_from_directions([[1, 0, 0], [-1, 0, 0]], [[1, 0, 0], [-1, 0, 0]])
+    with pytest.raises(E, match=r"a: expected non-zero directions, got a zero vector at row 1"):
+        rotation_from_directions([[1, 0, 0], [0, 0, 0], [0, 1, 0]], np.eye(3))
+    with pytest.raises(E, match=r"weights: expected non-negative weights, got -1.0"):
+        rotation_from_directions(np.eye(3), np.eye(3), [1, -1, 1])
+    with pytest.raises(E, match=r"weights: expected 3 weights \(one per direction\), got 2"):
+        rotation_from_directions(np.eye(3), np.eye(3), [1, 1])
+    with pytest.raises(E, match=r"R: expected a rotation matrix"):
+        rotation_angle_deg(np.diag([1.0, 1.0, -1.0]))
+    with pytest.raises(E, match=r"ray_lines: expected at least 3 rays, got 2"):
         translation_from_lines(np.eye(3), np.ones((1, 6)), np.ones((2, 6)), [0, 0])
+    with pytest.raises(E, match=r"signs: expected 3 values of \+1 or -1, got \[1.0, 0.0, 1.0\]"):
+        sign_candidates(np.eye(3), np.eye(3), np.zeros((3, 3, 3)), np.zeros((3, 3, 3)), signs=[1, 0, 1])

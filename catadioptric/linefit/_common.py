@@ -79,3 +79,12 @@ def _scatter(ok, v, fill, M, tail=()):
     return out
 
 
+def _check_min_distance(min_distance, cam) -> float:
+    """The smallest distance of a fitted line from the rays' centre: ``min_distance`` (metres,
+    >= 0), default the mirror's scale."""
+    if min_distance is None:
+        return 1.0 * cam.mirror.scale
+    d = as_scalar(min_distance, "min_distance")
+    if d < 0:
+        raise CatadioptricError(f"min_distance: expected a non-negative number of metres, got {d!r}")
+    return d

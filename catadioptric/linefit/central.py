@@ -39,10 +39,11 @@ def direction_from_planes(normals, normal_covs):
 
 
 # --------------------------------------------------------------------------- central cameras
-def fit_interpretation_plane(cam: CatadioptricCamera, uv, *, f_scale: float = 1.0, ransac: bool = True, seed=0,
+def fit_interpretation_plane(cam, uv, *, f_scale: float = 1.0, ransac: bool = True, seed=0,
                              pixel_sigma=None, inlier_threshold=None, max_trials: int = 200) -> InterpretationPlane:
     """What one image of a central camera says about a 3-D line: the plane through the
     viewpoint that holds it (``normal``, unit; the line's direction is normal to it).
+    ``cam``: a central :class:`CatadioptricCamera` or a :class:`~catadioptric.unified.UnifiedCamera`.
 
     Pixels ``uv (M, 2)`` (M >= 3). Minimises the first-order image distance of each pixel
     to the plane's image, ``|n . d_j| / |Jd_j^T n|`` (``d_j`` the pixel's ray direction,
@@ -51,9 +52,11 @@ def fit_interpretation_plane(cam: CatadioptricCamera, uv, *, f_scale: float = 1.
     linearisation (sigma from the residuals unless ``pixel_sigma`` is given). Two or
     more parallel lines give their direction as the common normal of their planes.
     """
-    if not isinstance(cam, CatadioptricCamera):
-        raise CatadioptricError(f"cam: expected a CatadioptricCamera, got {type(cam).__name__}")
-    if not cam.is_central:
+    from ..unified import UnifiedCamera
+
+    if not isinstance(cam, (CatadioptricCamera, UnifiedCamera)):
+        raise CatadioptricError(f"cam: expected a CatadioptricCamera or a UnifiedCamera, got {type(cam).__name__}")
+    if isinstance(cam, CatadioptricCamera) and not cam.is_central:
         raise CatadioptricError("cam: expected a central camera (cam.is_central); a non-central camera sees the "
                                 "whole line: use fit_line")
     uv = _check_uv(uv, "uv", 3)

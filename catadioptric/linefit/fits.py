@@ -9,6 +9,7 @@ from ..cameras import CatadioptricCamera
 from ._common import (
     _check_camera,
     _check_fit_options,
+    _check_min_distance,
     _check_options,
     _check_uv,
     _rng,
@@ -24,7 +25,7 @@ from .results import FamilyFit, LineFit
 # --------------------------------------------------------------------------- public fits
 def fit_line(cam: CatadioptricCamera, uv, *, loss: str = "soft_l1", f_scale: float = 1.0, ransac: bool = True,
              seed=0, pixel_sigma=None, inlier_threshold=None, max_trials: int = 200,
-             jac: str = "analytic") -> LineFit:
+             jac: str = "analytic", min_distance=None) -> LineFit:
     """Fit the 3-D line whose image passes through pixels ``uv (M, 2)`` (M >= 5) of a non-central camera.
 
     Minimises the image distance of the pixels to the line's image: unknowns the line
@@ -38,7 +39,11 @@ def fit_line(cam: CatadioptricCamera, uv, *, loss: str = "soft_l1", f_scale: flo
     with sigma estimated robustly, or ``3.5 pixel_sigma``), and a plain least-squares
     polish on the inliers. ``pixel_sigma``: known pixel noise for the covariance (default:
     estimated from the inlier residuals). ``jac``: ``"analytic"`` (Fermat's principle) or
-    ``"2-point"``/``"3-point"`` (finite differences with ``jac_sparsity``).
+    ``"2-point"``/``"3-point"`` (finite differences with ``jac_sparsity``). ``min_distance``:
+    the line keeps at least this distance (metres; default twice the mirror's scale) from
+    the point nearest all the pixels' rays. Near a near-central rig's viewpoint every ray
+    nearly meets every line: there a line fits any noisy pixels, and without the bound the
+    least-squares optimum of a near-central rig can run into it (docs/linefit.md).
 
     Raises :class:`CatadioptricError` for central cameras (the position is not observable)
     and for bad input.
@@ -47,14 +52,16 @@ def fit_line(cam: CatadioptricCamera, uv, *, loss: str = "soft_l1", f_scale: flo
     uv = _check_uv(uv, "uv", 5)
     f_scale, pixel_sigma, inlier_threshold = _check_options(loss, f_scale, pixel_sigma, inlier_threshold)
     thr = _check_fit_options(jac, max_trials, f_scale, pixel_sigma, inlier_threshold)
+    dmin = _check_min_distance(min_distance, cam)
     rng = _rng(seed)
     ok, px = _prepare(cam, uv, "uv")
-    s, q, mask, n_hyp = _initial_line(cam, px, ransac=ransac, rng=rng, thr=thr, max_trials=int(max_trials))
+    s, q, mask, n_hyp = _initial_line(cam, px, ransac=ransac, rng=rng, thr=thr, max_trials=int(max_trials),
+                                      dmin=dmin)
     lam0 = _closest_depths(q, s, px.o, px.d)
     owner = np.zeros(len(px.uv), dtype=np.int64)
     r = _solve_family(cam, px.uv, px.o, px.d, owner, 1, s, q[None], lam0, loss=loss, f_scale=f_scale,
                       pixel_sigma=pixel_sigma, inlier_threshold=inlier_threshold, jac=jac, start_mask=mask,
-                      names=["uv"])
+                      names=["uv"], min_distance=dmin)
     return _line_result(r, ok, len(uv), n_hyp)
 
 
@@ -92,7 +99,7 @@ def _check_sets(uv_sets):
 
 def fit_parallel_lines(cam: CatadioptricCamera, uv_sets, *, loss: str = "soft_l1", f_scale: float = 1.0,
                        ransac: bool = True, seed=0, pixel_sigma=None, inlier_threshold=None,
-                       max_trials: int = 200, jac: str = "analytic") -> FamilyFit:
+                       max_trials: int = 200, jac: str = "analytic", min_distance=None) -> FamilyFit:
     """Fit parallel 3-D lines, one per pixel set ``uv_sets[i] (M_i, 2)``, sharing one direction.
 
     Unknowns: the direction (2 DOF), each line's point in the plane normal to it (2 DOF
@@ -101,18 +108,19 @@ def fit_parallel_lines(cam: CatadioptricCamera, uv_sets, *, loss: str = "soft_l1
     among the intersection of the sets' near-central planes (the planes through the
     point nearest all rays that hold each set's rays: parallel lines' planes meet along
     the common direction) and the sets' own linear solutions, each line's moment by
-    linear least squares for that direction.
+    linear least squares for that direction. ``min_distance`` as in :func:`fit_line`.
     """
     _check_camera(cam, "the lines' positions and direction")
     sets = _check_sets(uv_sets)
     f_scale, pixel_sigma, inlier_threshold = _check_options(loss, f_scale, pixel_sigma, inlier_threshold)
     thr = _check_fit_options(jac, max_trials, f_scale, pixel_sigma, inlier_threshold)
+    dmin = _check_min_distance(min_distance, cam)
     rng = _rng(seed)
     prepared = [_prepare(cam, u, f"uv_sets[{i}]") for i, u in enumerate(sets)]
     pxs = [p[1] for p in prepared]
     o_all = np.concatenate([p.o for p in pxs])
     d_all = np.concatenate([p.d for p in pxs])
-    frame = _ray_frame(cam, o_all, d_all)
+    frame = _ray_frame(cam, o_all, d_all, dmin)
     masks, own_lines = [], []
     for px in pxs:
         if ransac:
@@ -148,7 +156,8 @@ def fit_parallel_lines(cam: CatadioptricCamera, uv_sets, *, loss: str = "soft_l1
     lam0 = _closest_depths(q0[owner], s0, o_all, d_all)
     r = _solve_family(cam, uv_all, o_all, d_all, owner, len(pxs), s0, q0, lam0, loss=loss, f_scale=f_scale,
                       pixel_sigma=pixel_sigma, inlier_threshold=inlier_threshold, jac=jac,
-                      start_mask=np.concatenate(masks), x0=frame.x0, names=[f"uv_sets[{i}]" for i in range(len(pxs))])
+                      start_mask=np.concatenate(masks), x0=frame.x0, names=[f"uv_sets[{i}]" for i in range(len(pxs))],
+                      min_distance=dmin)
     s, q = r["s"], r["q"]
     sign = _orient(r["lam"][owner == 0], r["inliers"][owner == 0])
     s = sign * s

@@ -15,15 +15,38 @@ from ._common import _check_camera, _check_uv, _tangent_basis
 @dataclass
 class _RayFrame:
     """Rays of the valid pixels in a normalised frame: origin ``x0`` (the point nearest all
-    rays), moment scale ``eps`` (rms distance of the rays from ``x0``)."""
+    rays), moment scale ``eps`` (rms distance of the rays from ``x0``), ``dmin``: the smallest
+    distance from ``x0`` a line may have (see :func:`_far_enough`)."""
 
     o: np.ndarray
     d: np.ndarray
     x0: np.ndarray
     eps: float
+    dmin: float = 0.0
 
 
-def _ray_frame(cam, o, d) -> _RayFrame:
+def _pushed_out(frame: _RayFrame, L) -> np.ndarray:
+    """The lines ``L (n, 6)`` (unit ``s``) moved, where closer than ``frame.dmin`` to ``x0``, away from it
+    to that distance (same direction). A line through the point where a near-central rig's
+    reflected rays nearly meet meets every ray and fits any pixels: no candidate starts there."""
+    if frame.dmin <= 0 or len(L) == 0:
+        return L
+    s, m = L[:, :3], L[:, 3:]
+    foot = np.cross(s, m - np.cross(frame.x0, s))  # from x0 to the line, normal to s
+    dist = np.linalg.norm(foot, axis=-1)
+    close = dist < frame.dmin
+    if not close.any():
+        return L
+    fallback = _tangent_basis(s[close])[0]
+    u = np.where((dist[close] > 1e-12 * frame.dmin)[:, None], foot[close] / np.maximum(dist[close], 1e-300)[:, None],
+                 fallback)
+    q = frame.x0 + frame.dmin * u
+    out = L.copy()
+    out[close, 3:] = np.cross(q, s[close])
+    return out
+
+
+def _ray_frame(cam, o, d, dmin: float = 0.0) -> _RayFrame:
     proj = np.eye(3) - d[:, :, None] * d[:, None, :]
     A = proj.sum(axis=0)
     b = np.einsum("nij,nj->i", proj, o)
@@ -36,7 +59,7 @@ def _ray_frame(cam, o, d) -> _RayFrame:
     mom = np.cross(o - x0, d)
     eps = float(np.sqrt(np.mean(np.sum(mom**2, axis=-1))))
     eps = max(eps, 1e-9 * cam.mirror.scale)
-    return _RayFrame(o, d, x0, eps)
+    return _RayFrame(o, d, x0, eps, float(dmin))
 
 
 def _candidates_from_rays(frame: _RayFrame, o, d):
@@ -110,7 +133,7 @@ def _plane_candidates(frame: _RayFrame, o, d, n_angles: int, default_distance: f
     dw = np.einsum("sai,ski->sak", w, d)
     with np.errstate(invalid="ignore", divide="ignore"):
         h = -np.sum(sm * dw, axis=-1) / np.sum(dw * dw, axis=-1)
-    bad = ~np.isfinite(h) | (h <= 0.1 * default_distance) | (h > 1e2 * default_distance)
+    bad = ~np.isfinite(h) | (h <= max(0.1 * default_distance, frame.dmin)) | (h > 1e2 * default_distance)
     h = np.where(bad, default_distance, h)
     q = frame.x0 + h[..., None] * u
     L = np.concatenate([s, np.cross(q, s)], axis=-1)
@@ -122,7 +145,8 @@ def _all_candidates(cam, frame, o, d, n_angles=8):
     """Every candidate from one set of rays ``(k, 3)``: ``(n, 6)``."""
     L1, ok1 = _candidates_from_rays(frame, o[None], d[None])
     L2, ok2 = _plane_candidates(frame, o[None], d[None], n_angles, 10.0 * cam.mirror.scale)
-    return np.concatenate([L1[0][ok1[0]], L2[0][ok2[0]]])
+    L = np.concatenate([L1[0][ok1[0]], L2[0][ok2[0]]])
+    return _pushed_out(frame, L)
 
 
 def line_candidates(cam: CatadioptricCamera, uv) -> np.ndarray:
@@ -169,6 +193,6 @@ def _moment_candidates(frame, s, o, d, scale):
         hs.append(h)
     for h in hs:
         out.append(np.concatenate([s, np.cross(frame.x0 + h * u, s)]))
-    return np.array(out)
+    return _pushed_out(frame, np.array(out))
 
 

@@ -30,7 +30,7 @@ class _Problem:
     instead of running off to infinity. Residual: the image of ``P_j`` (branch nearest
     ``uv_j``) minus ``uv_j``."""
 
-    def __init__(self, cam, uv, owner, n_lines, x0, s0, q0, lam0):
+    def __init__(self, cam, uv, owner, n_lines, x0, s0, q0, lam0, rho_max=np.inf):
         self.cam = cam
         self.uv = uv
         self.owner = owner
@@ -50,6 +50,7 @@ class _Problem:
         self.np = 2 + 2 * n_lines
         self.n = self.np + self.N
         self.rho_min = 1e-6 / cam.mirror.scale
+        self.rho_max = float(rho_max)
         self.penalty = 2.0 * float(np.hypot(cam.pinhole.width, cam.pinhole.height))
         self._cache_x = None
         self.nfev = 0
@@ -63,13 +64,16 @@ class _Problem:
         self._rows, self._cols = rows, cols.reshape(-1)
 
     def x0(self):
-        lines = np.stack([self.alpha0, np.maximum(self.rho0, 2 * self.rho_min)], axis=1).reshape(-1)
+        rho = np.minimum(np.maximum(self.rho0, 2 * self.rho_min), 0.999 * self.rho_max)
+        lines = np.stack([self.alpha0, rho], axis=1).reshape(-1)
         return np.concatenate([np.zeros(2), lines, self.mu0])
 
     def bounds(self):
         lo = np.full(self.n, -np.inf)
         lo[3:self.np:2] = self.rho_min
-        return lo, np.full(self.n, np.inf)
+        hi = np.full(self.n, np.inf)
+        hi[3:self.np:2] = self.rho_max
+        return lo, hi
 
     def _parts(self, x):
         v = self.s0 + x[0] * self.e1 + x[1] * self.e2
@@ -174,7 +178,7 @@ def _canonical(s, q, lam, owner):
 
 
 def _solve_family(cam, uv_all, o, d, owner, n_lines, s0, q0, lam0, *, loss, f_scale, pixel_sigma,
-                  inlier_threshold, jac="analytic", start_mask=None, x0=None, names=None):
+                  inlier_threshold, jac="analytic", start_mask=None, x0=None, names=None, min_distance=0.0):
     """Robust fit, inlier classification, least-squares polish on the inliers, covariance.
 
     ``uv_all (N, 2)`` pixels that see the world, ``o, d (N, 3)`` their rays, ``owner (N,)``
@@ -183,8 +187,10 @@ def _solve_family(cam, uv_all, o, d, owner, n_lines, s0, q0, lam0, *, loss, f_sc
     ``lam0``. The inliers are the pixels within the threshold of the fitted image
     (``inlier_threshold``, else ``3.5 pixel_sigma``, else ``3 max(f_scale, 1.2 sigma_r)`` with
     ``sigma_r`` from the median distance); a plain least-squares polish on them is
-    repeated (at most three times) until they settle. Returns a dict."""
+    repeated (at most three times) until they settle. Lines stay at least ``min_distance``
+    from the rays' centre ``x0``. Returns a dict."""
     names = names or [f"line {i}" for i in range(n_lines)]
+    rho_max = 1.0 / min_distance if min_distance > 0 else np.inf
     N = len(uv_all)
     use = np.ones(N, dtype=bool) if start_mask is None else np.asarray(start_mask, dtype=bool).copy()
     nfev = 0
@@ -194,7 +200,7 @@ def _solve_family(cam, uv_all, o, d, owner, n_lines, s0, q0, lam0, *, loss, f_sc
     xc = _ray_frame(cam, o, d).x0 if x0 is None else np.asarray(x0, dtype=float)
 
     def solve(mask, loss_, s, q, lam):
-        pb = _Problem(cam, uv_all[mask], owner[mask], n_lines, xc, s, q, lam[mask])
+        pb = _Problem(cam, uv_all[mask], owner[mask], n_lines, xc, s, q, lam[mask], rho_max)
         x = pb.solve(loss_, f_scale, jac)
         s, q, lam_m, _ = pb.unpack(x)
         q, lam_m = _canonical(s, q, lam_m, owner[mask])
@@ -240,7 +246,7 @@ def _solve_family(cam, uv_all, o, d, owner, n_lines, s0, q0, lam0, *, loss, f_sc
         polished = np.array_equal(new, inl)
         inl = new  # after the last round: the inliers of the final state
     # the chart re-centred at the solution (parameters zero) for the covariance
-    pb = _Problem(cam, uv_all[inl], owner[inl], n_lines, xc, s, q, lam[inl])
+    pb = _Problem(cam, uv_all[inl], owner[inl], n_lines, xc, s, q, lam[inl], rho_max)
     x = pb.x0()
     e = (uvp - uv_all)[inl]
     cov_unit = pb.schur_cov(x, np.ones(pb.N, dtype=bool))

@@ -9,6 +9,7 @@ from .linear import (
     _all_candidates,
     _candidates_from_rays,
     _plane_candidates,
+    _pushed_out,
     _ray_frame,
 )
 
@@ -25,11 +26,13 @@ def _ransac(cam, frame, px: _Pixels, rng, thr, max_trials, sample_size=4, batch=
         dist = _linear_distances(px, L)
         return np.sum(np.minimum(dist**2, thr**2), axis=1), np.sum(dist <= thr, axis=1)
 
+    best_L, best_cost, best_cnt = None, np.inf, 0
     L = _all_candidates(cam, frame, o, d)
-    cost, cnt = score(L)
-    j = int(np.argmin(cost))
-    best_L, best_cost, best_cnt = L[j], cost[j], cnt[j]
-    n_hyp = len(cost)
+    if len(L):
+        cost, cnt = score(L)
+        j = int(np.argmin(cost))
+        best_L, best_cost, best_cnt = L[j], cost[j], cnt[j]
+    n_hyp = len(L)
     trials, needed = 0, max_trials
     while trials < needed:
         nb = int(min(batch, needed - trials))
@@ -40,6 +43,7 @@ def _ransac(cam, frame, px: _Pixels, rng, thr, max_trials, sample_size=4, batch=
         idx3 = perm[:, sample_size:sample_size + 3] if M >= sample_size + 3 else perm[:, :3]
         Lp, okp = _plane_candidates(frame, o[idx3], d[idx3], 1, 10.0 * cam.mirror.scale)
         L = np.concatenate([L[ok], Lp[okp]])
+        L = _pushed_out(frame, L)
         trials += nb
         if len(L) == 0:
             continue
@@ -53,6 +57,9 @@ def _ransac(cam, frame, px: _Pixels, rng, thr, max_trials, sample_size=4, batch=
             needed = trials
         elif w > 0:
             needed = min(max_trials, int(np.ceil(np.log(0.01) / np.log1p(-w**sample_size))))
+    if best_L is None:
+        raise CatadioptricError(f"uv: no line at least {frame.dmin:.3g} m (min_distance) from the rays' centre "
+                                f"meets the pixels' rays")
     for _ in range(3):  # local optimisation
         inl = _linear_distances(px, best_L[None])[0] <= thr
         if inl.sum() < 5:
@@ -102,8 +109,8 @@ def _orient(lam, inl):
     return -1.0 if lam[j[-1]] < lam[j[0]] else 1.0
 
 
-def _initial_line(cam, px: _Pixels, *, ransac, rng, thr, max_trials):
-    frame = _ray_frame(cam, px.o, px.d)
+def _initial_line(cam, px: _Pixels, *, ransac, rng, thr, max_trials, dmin=0.0):
+    frame = _ray_frame(cam, px.o, px.d, dmin)
     if ransac:
         L, mask, n_hyp = _ransac(cam, frame, px, rng, thr, max_trials)
         if mask.sum() < 5:

@@ -15,7 +15,7 @@ import time
 import numpy as np
 
 from .._checks import CatadioptricError
-from ..pose import rotation_angle_deg, rotation_from_directions, rotation_with_sign_search
+from ..pose import rotation_angle_deg, rotation_from_directions, sign_candidates
 from .report import md_table
 from .views import View, line_pixels, load_dataset
 
@@ -157,7 +157,9 @@ def run(dataset: str, *, view_a: str | None = None, view_b: str | None = None, n
     var = np.array([np.radians(r[f"direction_sigma_deg_{A.name}"]) ** 2 + np.radians(r[f"direction_sigma_deg_{B.name}"]) ** 2
                     for r in used])
     weights = 1.0 / np.maximum(var, 1e-12)
-    R, signs = rotation_with_sign_search(da, db, weights)
+    cov = np.array([np.eye(3) / w for w in weights]) / 2
+    best = sign_candidates(da, db, cov, cov)[0]
+    R, signs = best.R, best.signs
     db = db * signs[:, None]
     R_gt = B.pose.R @ A.pose.R.T
     out = {

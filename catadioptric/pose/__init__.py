@@ -1,0 +1,35 @@
+"""Pose of a catadioptric rig from lines: absolute (world lines known) and relative (two views).
+
+Conventions (docs/conventions.md): a world point has mirror coordinates ``x_M = R x_W + t``;
+between two views ``x_B = R x_A + t`` (mirror frames). Lines are Pluecker ``(s, m)`` with
+``m = q x s``. Rotation covariances are those of the left rotation vector ``R(w) = exp([w]_x) R``.
+
+| solver | module | input | output |
+|---|---|---|---|
+| `rotation_from_directions` | `rotation.py` | matched directions (signs known), weights | R (orthogonal Procrustes) |
+| `refine_rotation` | `rotation.py` | matched directions with covariances | R, covariance, robust per-direction chi2 |
+| `sign_candidates` | `signs.py` | directions known up to sign | the sign patterns a rotation fits, refined |
+| `translation_from_lines` | `translation.py` | R, world lines, rays of their pixels | t (absolute pose) |
+| `relative_translation_from_lines` | `translation.py` | R, lines fitted in each view, rays of both | t (metric, non-central) |
+| `refine_two_view` | `bundle.py` | R, t, lines, pixels of both views | R, t, lines, covariance (non-central) |
+| `translation_direction_from_crossings` | `central.py` | R, interpretation planes of both views | direction between viewpoints (central) |
+| `relative_pose` | `relative.py` | the lines each view sees | R, t, covariance, candidates, ambiguity verdict |
+
+See docs/relative_pose.md.
+"""
+from __future__ import annotations
+
+from .bundle import TwoViewFit, refine_two_view
+from .central import CrossingFit, translation_direction_from_crossings
+from .families import FamilyEstimate, ViewLines, fit_view_families
+from .relative import Candidate, RelativePose, relative_pose
+from .rotation import DirectionRotation, refine_rotation, rotation_angle_deg, rotation_from_directions
+from .signs import SignCandidate, sign_candidates
+from .translation import relative_translation_from_lines, translation_from_lines
+
+__all__ = [
+    "rotation_from_directions", "rotation_angle_deg", "refine_rotation", "DirectionRotation",
+    "sign_candidates", "SignCandidate", "translation_from_lines", "relative_translation_from_lines",
+    "refine_two_view", "TwoViewFit", "translation_direction_from_crossings", "CrossingFit",
+    "ViewLines", "FamilyEstimate", "fit_view_families", "relative_pose", "RelativePose", "Candidate",
+]

@@ -1,0 +1,179 @@
+"""What one view says about each family of parallel lines: its direction with covariance, and
+its lines (a 3-D line each for a non-central rig, an interpretation plane each for a central one).
+
+The lines one view sees are given as :class:`ViewLines` (pixels per line, the family of each line,
+and an id shared with the other view for lines known to be the same). The fits are those of
+:mod:`catadioptric.linefit`; a line whose pixels do not fit (the fit names it) is dropped and
+the family refitted, so one bad line cannot sink its family.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .._checks import CatadioptricError, as_float_array
+
+__all__ = ["ViewLines", "FamilyEstimate", "fit_view_families", "is_central", "rays_centre"]
+
+
+def rays_centre(cam) -> np.ndarray:
+    """The point nearest all the rays of the image (the viewpoint of a central camera)."""
+    if is_central(cam):
+        return np.asarray(cam.viewpoint, dtype=float)
+    pin = cam.pinhole
+    u, v = np.meshgrid(np.linspace(0, pin.width - 1, 40), np.linspace(0, pin.height - 1, 30))
+    r = cam.backproject(np.stack([u.ravel(), v.ravel()], axis=1))
+    o, d = r.origins[r.valid], r.directions[r.valid]
+    P = np.eye(3) - d[:, :, None] * d[:, None, :]
+    return np.linalg.lstsq(P.sum(0), np.einsum("nij,nj->i", P, o), rcond=None)[0]
+
+
+def is_central(cam) -> bool:
+    """True for a camera whose rays all pass through one viewpoint (an exact central rig, or a
+    unified-model camera)."""
+    return bool(getattr(cam, "is_central", True))
+
+
+@dataclass
+class ViewLines:
+    """The lines one view sees: ``uv[i] (M_i, 2)`` pixels of line i, ``family[i]`` its family (any
+    hashable key, the same key in both views for the same family), ``line_id[i]`` an id shared
+    with the other view for the same 3-D line, or None (unknown correspondence). ``cam``: the
+    view's camera (:class:`~catadioptric.cameras.CatadioptricCamera`, or a central
+    :class:`~catadioptric.unified.UnifiedCamera`)."""
+
+    cam: object
+    uv: list
+    family: list
+    line_id: list = field(default=None)
+
+    def __post_init__(self):
+        if not hasattr(self.cam, "backproject"):
+            raise CatadioptricError(f"cam: expected a camera with backproject(), got {type(self.cam).__name__}")
+        self.uv = [as_float_array(u, f"uv[{i}]", 2).reshape(-1, 2) for i, u in enumerate(self.uv)]
+        self.family = list(self.family)
+        if len(self.family) != len(self.uv):
+            raise CatadioptricError(f"family: expected one family per line ({len(self.uv)}), got {len(self.family)}")
+        if self.line_id is None:
+            self.line_id = [None] * len(self.uv)
+        self.line_id = list(self.line_id)
+        if len(self.line_id) != len(self.uv):
+            raise CatadioptricError(f"line_id: expected one id per line ({len(self.uv)}), got {len(self.line_id)}")
+
+    def families(self) -> dict:
+        """``{family: [line indices]}`` in the order of first appearance."""
+        out: dict = {}
+        for i, f in enumerate(self.family):
+            out.setdefault(f, []).append(i)
+        return out
+
+
+@dataclass
+class FamilyEstimate:
+    """One family in one view. ``direction`` (unit, sign as fitted or as the given end says) with
+    ``cov (3, 3)``; ``lines``: indices (into the view's lines) of the lines kept; per kept line
+    ``pluecker (L, 6)`` in the view's mirror frame (non-central; NaN for central) and the
+    unit ``normals (L, 3)`` of the planes through ``centre`` that hold each line (central: the
+    interpretation planes, ``centre`` the viewpoint; non-central: the planes through the
+    point nearest all the rays of the image, which a near-central rig fixes far better than
+    the line's distance); ``inliers``: a boolean mask per kept line over its pixels; ``sigma``
+    (pixels) and ``rms`` of the fit; ``dropped``: ``{line index: reason}``."""
+
+    key: object
+    direction: np.ndarray
+    cov: np.ndarray
+    lines: list
+    pluecker: np.ndarray
+    normals: np.ndarray
+    centre: np.ndarray
+    inliers: list
+    sigma: float
+    rms: float
+    dropped: dict
+
+
+_NAMED = re.compile(r"uv_sets\[(\d+)\]")
+
+
+def _fit_noncentral(cam, uv_sets, seed, f_scale, pixel_sigma, max_drops=8):
+    from ..linefit import fit_parallel_lines
+
+    keep = list(range(len(uv_sets)))
+    dropped = {}
+    for _ in range(max_drops + 1):
+        if not keep:
+            break
+        try:
+            fit = fit_parallel_lines(cam, [uv_sets[i] for i in keep], seed=seed, f_scale=f_scale,
+                                     pixel_sigma=pixel_sigma)
+        except CatadioptricError as exc:
+            m = _NAMED.search(str(exc))
+            if not m:
+                raise
+            bad = keep.pop(int(m.group(1)))
+            dropped[bad] = str(exc).split(": ", 1)[-1]
+            continue
+        return fit, keep, dropped
+    raise CatadioptricError("no line of the family fits: " + "; ".join(f"line {k}: {v}" for k, v in dropped.items()))
+
+
+def _fit_central(cam, uv_sets, seed, f_scale, pixel_sigma):
+    from ..linefit import direction_from_planes, fit_interpretation_plane
+
+    planes, keep, dropped = [], [], {}
+    for i, u in enumerate(uv_sets):
+        try:
+            planes.append(fit_interpretation_plane(cam, u, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma))
+            keep.append(i)
+        except CatadioptricError as exc:
+            dropped[i] = str(exc)
+    if len(planes) < 2:
+        raise CatadioptricError(f"a central camera needs at least 2 lines of a family (one gives only a plane), "
+                                f"got {len(planes)} that fit")
+    s, cov = direction_from_planes([p.normal for p in planes], [p.normal_cov for p in planes])
+    return planes, s, cov, keep, dropped
+
+
+def fit_view_families(view: ViewLines, *, keys=None, seed=0, f_scale: float = 1.0, pixel_sigma=None,
+                      hints: dict | None = None) -> tuple[dict, dict]:
+    """Fit every family of ``view`` (or those in ``keys``). Returns ``(estimates, failures)``:
+    ``{family: FamilyEstimate}`` and ``{family: reason}``. ``hints``: ``{family: direction}``
+    in the view's mirror frame (a matched end, e.g. from a vanishing point): the fitted
+    direction is flipped to agree with it."""
+    fams = view.families()
+    est, fail = {}, {}
+    central = is_central(view.cam)
+    centre = rays_centre(view.cam)
+    for key in (fams if keys is None else [k for k in keys if k in fams]):
+        idx = fams[key]
+        sets = [view.uv[i] for i in idx]
+        try:
+            if central:
+                planes, s, cov, keep, dropped = _fit_central(view.cam, sets, seed, f_scale, pixel_sigma)
+                normals = np.array([p.normal for p in planes])
+                pl = np.full((len(keep), 6), np.nan)
+                inl = [p.inliers for p in planes]
+                rms = float(np.sqrt(np.mean(np.concatenate([p.distances[p.inliers] ** 2 for p in planes]))))
+                sig = float(np.nanmedian([p.rms for p in planes]))
+            else:
+                fit, keep, dropped = _fit_noncentral(view.cam, sets, seed, f_scale, pixel_sigma)
+                s, cov = fit.direction, fit.direction_cov
+                pl = np.concatenate([np.tile(s, (fit.n_lines, 1)), fit.moments], axis=1)
+                normals = np.cross(fit.points - centre, s)
+                normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
+                inl = fit.inliers
+                rms, sig = fit.rms, fit.sigma
+        except CatadioptricError as exc:
+            fail[key] = str(exc)
+            continue
+        if hints is not None and key in hints and hints[key] is not None:
+            h = np.asarray(hints[key], float)
+            if s @ h < 0:
+                s = -s
+                pl = -pl
+        est[key] = FamilyEstimate(key=key, direction=s, cov=cov, lines=[idx[k] for k in keep], pluecker=pl,
+                                  normals=normals, centre=centre, inliers=list(inl), sigma=sig, rms=rms,
+                                  dropped={idx[k]: v for k, v in dropped.items()})
+    return est, fail

@@ -1,0 +1,114 @@
+"""Translations from lines with the rotation known (the paper's Pluecker constraint, Sec. 4.3).
+
+A ray with Pluecker coordinates ``(v, o x v)`` meets a line ``(s, m)`` when their reciprocal
+product vanishes: ``s . (o x v) + v . m = 0``. A line known in one frame and moved by
+``x' = R x + t`` has ``(R s, R m + t x R s)``, which is linear in ``t``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .._checks import CatadioptricError, as_float_array, as_rotation
+
+__all__ = ["translation_from_lines", "relative_translation_from_lines"]
+
+
+def translation_from_lines(R, world_lines, ray_lines, line_index) -> np.ndarray:
+    """Translation ``t`` of ``x_M = R x_W + t`` from pixels of known world lines (absolute pose, the
+    paper's Sec. 5.3).
+
+    ``world_lines (L, 6)``: Pluecker ``(s, m)`` of lines in W; ``ray_lines (M, 6)``: Pluecker
+    coordinates in M of the reflected rays of pixels that image them (``ray_lines[j]`` images
+    ``world_lines[line_index[j]]``). Each ray meets its line:
+    ``t . (R s x s_j) = -(s_j . R m + m_j . R s)``; least squares over all rays.
+    At least three rays over two non-parallel lines are needed.
+    """
+    R = as_rotation(R, "R")
+    W = as_float_array(world_lines, "world_lines", 6).reshape(-1, 6)
+    P = as_float_array(ray_lines, "ray_lines", 6).reshape(-1, 6)
+    idx = np.asarray(line_index, dtype=int).reshape(-1)
+    if len(idx) != len(P):
+        raise CatadioptricError(f"line_index: expected {len(P)} entries (one per ray), got {len(idx)}")
+    if len(P) < 3:
+        raise CatadioptricError(f"ray_lines: expected at least 3 rays, got {len(P)}")
+    if np.any((idx < 0) | (idx >= len(W))):
+        raise CatadioptricError(f"line_index: expected indices into {len(W)} world lines, got "
+                                f"{int(idx[(idx < 0) | (idx >= len(W))][0])}")
+    Rs = W[idx, :3] @ R.T
+    Rm = W[idx, 3:] @ R.T
+    sj, mj = P[:, :3], P[:, 3:]
+    A = np.cross(Rs, sj)
+    b = -(np.sum(sj * Rm, axis=1) + np.sum(mj * Rs, axis=1))
+    t, *_ = np.linalg.lstsq(A, b, rcond=None)
+    return t
+
+
+def _rows_a_to_b(R, lines_a, rays_b, owner_b):
+    """Equations ``t . c = d`` (one per ray of view B) from lines known in frame A."""
+    s = lines_a[owner_b, :3] @ R.T
+    m = lines_a[owner_b, 3:] @ R.T
+    v, mv = rays_b[:, :3], rays_b[:, 3:]
+    c = np.cross(s, v)
+    d = -(np.sum(s * mv, axis=1) + np.sum(v * m, axis=1))
+    return c, d
+
+
+def _rows_b_to_a(R, lines_b, rays_a, owner_a):
+    """Equations ``t . c = d`` (one per ray of view A) from lines known in frame B."""
+    s = lines_b[owner_a, :3]
+    m = lines_b[owner_a, 3:]
+    v, mv = rays_a[:, :3], rays_a[:, 3:]
+    Rv = v @ R.T
+    c = np.cross(s, Rv)
+    d = np.sum((s @ R) * mv, axis=1) + np.sum(Rv * m, axis=1)
+    return c, d
+
+
+def relative_translation_from_lines(R, lines_a, lines_b, rays_a, owner_a, rays_b, owner_b, *,
+                                    robust: bool = True, iters: int = 10):
+    """Translation ``t`` of ``x_B = R x_A + t`` from lines matched across two views, both ways.
+
+    ``lines_a, lines_b (L, 6)``: Pluecker ``(s, m)`` of the same L lines fitted in each view's
+    frame (NaN rows for a line not fitted in that view); ``rays_a (Ma, 6)`` with ``owner_a (Ma,)``:
+    the reflected rays of view A's pixels and the line each images (likewise for B). Each line
+    of A moved into B meets the rays of its pixels in B, and each line of B moved back meets
+    those in A: one equation linear in ``t`` per ray, scaled to a distance (metres) by the sine
+    of the angle between ray and line. Least squares, iteratively reweighted (Huber) when
+    ``robust``. Returns ``(t, residuals (Ma + Mb,))`` in metres.
+    """
+    R = as_rotation(R, "R")
+    La = as_float_array(lines_a, "lines_a", 6, finite=False).reshape(-1, 6)
+    Lb = as_float_array(lines_b, "lines_b", 6, finite=False).reshape(-1, 6)
+    if La.shape != Lb.shape:
+        raise CatadioptricError(f"lines_a, lines_b: expected the same lines, got {len(La)} and {len(Lb)}")
+    Pa = as_float_array(rays_a, "rays_a", 6).reshape(-1, 6)
+    Pb = as_float_array(rays_b, "rays_b", 6).reshape(-1, 6)
+    oa = np.asarray(owner_a, dtype=int).reshape(-1)
+    ob = np.asarray(owner_b, dtype=int).reshape(-1)
+    if len(oa) != len(Pa) or len(ob) != len(Pb):
+        raise CatadioptricError(f"owner_a, owner_b: expected one line index per ray ({len(Pa)}, {len(Pb)}), "
+                                f"got {len(oa)}, {len(ob)}")
+    c1, d1 = _rows_a_to_b(R, La, Pb, ob)
+    c2, d2 = _rows_b_to_a(R, Lb, Pa, oa)
+    c = np.concatenate([c1, c2])
+    d = np.concatenate([d1, d2])
+    ok = np.all(np.isfinite(c), axis=1) & np.isfinite(d)
+    sine = np.linalg.norm(c, axis=1)
+    ok &= sine > 1e-6
+    if ok.sum() < 3:
+        raise CatadioptricError(f"lines_a, lines_b: expected at least 3 rays meeting lines fitted in the other "
+                                f"view, got {int(ok.sum())}")
+    c = c[ok] / sine[ok, None]
+    d = d[ok] / sine[ok]
+    w = np.ones(len(d))
+    t = np.zeros(3)
+    for _ in range(iters if robust else 1):
+        sw = np.sqrt(w)
+        t, *_ = np.linalg.lstsq(c * sw[:, None], d * sw, rcond=None)
+        r = c @ t - d
+        scale = 1.4826 * np.median(np.abs(r)) + 1e-12
+        k = 1.345 * scale
+        w = np.where(np.abs(r) <= k, 1.0, k / np.maximum(np.abs(r), 1e-300))
+    res = np.full(len(ok), np.nan)
+    res[ok] = c @ t - d
+    return t, res
