@@ -15,3 +15,37 @@ def test_cli_lists_its_subcommands():
                          check=True).stdout
     for cmd in ("demo", "render", "validate", "centrality"):
         assert cmd in out
+
+
+def test_license_citation_and_extras_agree_with_pyproject():
+    import tomllib
+    from pathlib import Path
+
+    import yaml
+
+    from catadioptric._extras import EXTRAS
+
+    root = Path(__file__).resolve().parents[1]
+    meta = tomllib.loads((root / "pyproject.toml").read_text())["project"]
+    assert meta["license"] == {"text": "BSD-3-Clause"}
+    assert "BSD 3-Clause License" in (root / "LICENSE").read_text()
+    assert "the catadioptric developers" in (root / "LICENSE").read_text()
+    cff = yaml.safe_load((root / "CITATION.cff").read_text())
+    assert cff["cff-version"] == "1.2.0" and cff["license"] == "BSD-3-Clause"
+    assert cff["authors"] == [{"name": "the catadioptric developers"}]
+    import catadioptric
+
+    assert cff["version"] == catadioptric.__version__
+    paper = cff["references"][0]
+    assert paper["title"] == "Analytical Modeling of Vanishing Points and Curves in Catadioptric Cameras"
+    assert [a["family-names"] for a in paper["authors"]] == ["Miraldo", "Eiras", "Ramalingam"] and paper["year"] == 2018
+    assert (root / "catadioptric" / "py.typed").is_file()
+    # every extra a missing-module message names exists, and brings that package
+    extras = meta["optional-dependencies"]
+    for module, (package, extra) in EXTRAS.items():
+        assert extra in extras, (module, extra)
+        assert any(d.split(">")[0].split("[")[0] == package.split("[")[0] or d.startswith("catadioptric[")
+                   for d in extras[extra]), (module, extra)
+    # one OpenCV wheel, the contrib one
+    deps = [d for ds in extras.values() for d in ds] + meta["dependencies"]
+    assert [d for d in deps if d.startswith("opencv")] == ["opencv-contrib-python-headless>=4.8"]
