@@ -144,7 +144,8 @@ def test_bad_inputs():
     with pytest.raises(cd.CatadioptricError, match=r"scene.objects\[3\].color: expected RGB in \[0, 1\], got "
                                                    r"\(1.2, 0.0, 0.0\)"):
         render_mitsuba(street, cam, pose)
-    with pytest.raises(cd.CatadioptricError, match=r"resolution: expected one of .* or WIDTHxHEIGHT, got 'huge'"):
+    with pytest.raises(cd.CatadioptricError, match=r"resolution: expected one of .* or WIDTHxHEIGHT \(two positive "
+                                                   r"integers, e.g. 640x480\), got 'huge'"):
         load_resolution("huge")
     with pytest.raises(cd.CatadioptricError, match=r"renderer: expected 'mitsuba' or 'povray', got 'blender'"):
         render(street, cam, pose, "blender")
