@@ -67,8 +67,9 @@ class CentralModel:
         if self.exact:
             return f"rig {self.rig}: central, exported exactly"
         a = self.angular_error_deg
-        return (f"rig {self.rig}: not exactly a central rig of this model; exported through its best central "
-                f"approximation (OpenCV omnidir form, no tilt): per-pixel angular error max {a['max']:.4g} deg, "
+        return (f"rig {self.rig}: no exact model of this form (a non-central rig, or a pinhole tilted off the "
+                f"mirror axis); exported through its best central approximation (OpenCV omnidir form, no tilt): "
+                f"per-pixel angular error max {a['max']:.4g} deg, "
                 f"median {a['median']:.4g} deg; fit rms {self.fit['rms_px']:.4g} px, max {self.fit['max_px']:.4g} px")
 
 
