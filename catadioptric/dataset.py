@@ -28,7 +28,8 @@ __all__ = ["Dataset", "DatasetView", "VIEW_KEYS"]
 DATASET_FORMAT = "catadioptric-dataset/1"
 
 #: The keys of a view (each read on first use). Optional files add ``depth``, ``ray_origins``,
-#: ``ray_directions`` (``rays.npz``) and ``beauty16`` (``beauty16.png``) when the dataset has them.
+#: ``ray_directions`` (``rays.npz``), ``beauty16`` (``beauty16.png``) and ``beauty_hdr`` (``beauty_hdr.npz``)
+#: when the dataset has them.
 VIEW_KEYS = ("name", "folder", "camera", "pose", "beauty", "labels", "label_ambiguous", "groundtruth", "arrays",
              "objects", "lines", "families", "curves", "vanishing_points", "ground_curve")
 
@@ -123,6 +124,8 @@ class DatasetView(Mapping):
             self._keys += ["depth", "ray_origins", "ray_directions"]
         if os.path.isfile(os.path.join(folder, "beauty16.png")):
             self._keys.append("beauty16")
+        if os.path.isfile(os.path.join(folder, "beauty_hdr.npz")):
+            self._keys.append("beauty_hdr")
 
     # ---------------------------------------------------------------- checks
     def _check(self) -> None:
@@ -228,6 +231,9 @@ class DatasetView(Mapping):
             from .render.common import decode_labels_png
 
             c[key] = decode_labels_png(self._image("labels.png", cv2.IMREAD_UNCHANGED))
+        elif key == "beauty_hdr":
+            with np.load(os.path.join(self.folder, "beauty_hdr.npz")) as z:
+                c[key] = z["linear_rgb"]
         elif key in ("depth", "ray_origins", "ray_directions"):
             with np.load(os.path.join(self.folder, "rays.npz")) as z:
                 for k in ("depth", "ray_origins", "ray_directions"):

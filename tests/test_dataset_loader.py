@@ -19,7 +19,7 @@ from catadioptric.scenes import build_scene
 def rendered(tmp_path_factory):
     out = str(tmp_path_factory.mktemp("ds") / "tiny")
     assert main(["render", "tiny_street", "--out", out, "--resolution", "tiny", "--quality", "draft", "--rays",
-                 "--beauty16", "--mesh", "--no-progress"]) == 0
+                 "--beauty16", "--hdr", "--mesh", "--no-progress"]) == 0
     return out
 
 
@@ -65,9 +65,16 @@ def test_view_contents_match_the_files(rendered):
         assert c["segment"] == int(z["line_curve_segment"][1])
         np.testing.assert_array_equal(v["vanishing_points"]["uv"], z["vp_uv"])
         np.testing.assert_array_equal(v["label_ambiguous"], z["label_ambiguous"])
-    # the 16-bit beauty is the same picture with 256 times the levels
+    # the 16-bit beauty is the same picture with 256 times the levels, both from the kept linear image
     b16 = v["beauty16"].astype(float) / 257.0
     assert v["beauty16"].dtype == np.uint16 and np.max(np.abs(b16 - v["beauty"])) <= 0.5 + 1e-9
+    from catadioptric.render.common import linear_to_srgb8
+    from catadioptric.render.extras import linear_to_srgb16
+
+    hdr = v["beauty_hdr"]
+    assert hdr.dtype == np.float32 and hdr.shape == (120, 160, 3) and hdr.max() > 0
+    np.testing.assert_array_equal(linear_to_srgb8(hdr.astype(np.float64)), v["beauty"])
+    np.testing.assert_array_equal(linear_to_srgb16(hdr.astype(np.float64)), v["beauty16"])
 
 
 def test_ray_and_depth_maps(rendered):

@@ -75,7 +75,7 @@ def run(args) -> int:
     from ..cliargs import check_out_dir, check_scheduler, flag_error
     from .common import load_quality
     from .dataset import render_dataset
-    from .extras import check_extras
+    from .extras import EXTRAS, check_extras
 
     scene, views, cam, rig = _load(args)
     try:
@@ -83,16 +83,16 @@ def run(args) -> int:
     except CatadioptricError as exc:
         raise flag_error("--quality", exc, "quality") from None
     try:
-        check_extras([e for e in ("rays", "beauty16", "mesh") if getattr(args, e)], args.renderer)
+        check_extras([e for e in EXTRAS if getattr(args, e)], args.renderer)
     except CatadioptricError as exc:
-        raise flag_error("--beauty16", exc, "extras") from None
+        raise flag_error("--" + next(e for e in ("beauty16", "hdr") if getattr(args, e)), exc, "extras") from None
     check_out_dir(args.out)
     if args.scheduler is not None:
         check_scheduler(args.scheduler)
     manifest = render_dataset(scene, views, cam, args.out, renderer=args.renderer, quality=args.quality,
                               workers=args.workers, scheduler=args.scheduler, rig=rig,
                               progress=not args.no_progress, line_images=args.line_images,
-                              extras=[e for e in ("rays", "beauty16", "mesh") if getattr(args, e)])
+                              extras=[e for e in EXTRAS if getattr(args, e)])
     run_ = manifest["run"]
     ag = manifest["label_agreement"]
     print(f"{args.out}: {len(manifest['views'])} views ({len(run_['rendered'])} rendered, "
@@ -128,6 +128,7 @@ def register(sub) -> None:
     p.add_argument("--rays", action="store_true", help="also write each view's depth and per-pixel ray maps "
                                                        "(rays.npz: origin on the mirror and direction, frame M)")
     p.add_argument("--beauty16", action="store_true", help="also write a 16-bit beauty image (beauty16.png; Mitsuba)")
+    p.add_argument("--hdr", action="store_true", help="also keep the linear (HDR) beauty (beauty_hdr.npz; Mitsuba)")
     p.add_argument("--mesh", action="store_true", help="also write the scene mesh once (scene.ply, faces labelled)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)

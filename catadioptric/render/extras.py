@@ -1,5 +1,5 @@
-"""Optional dataset outputs (``catadioptric render --rays --beauty16 --mesh``; docs/formats.md):
-per-pixel depth and ray maps, the 16-bit beauty image and the scene mesh file."""
+"""Optional dataset outputs (``catadioptric render --rays --beauty16 --hdr --mesh``; docs/formats.md):
+per-pixel depth and ray maps, the 16-bit and the linear (HDR) beauty images and the scene mesh file."""
 from __future__ import annotations
 
 import numpy as np
@@ -10,20 +10,22 @@ __all__ = ["EXTRAS", "EXTRA_FILES", "MESH_FILE", "check_extras", "ray_maps", "li
            "extra_blobs"]
 
 #: The optional outputs and the file each adds to every view folder (``mesh``: one file per dataset).
-EXTRAS = ("rays", "beauty16", "mesh")
-EXTRA_FILES = {"rays": "rays.npz", "beauty16": "beauty16.png"}
+EXTRAS = ("rays", "beauty16", "hdr", "mesh")
+EXTRA_FILES = {"rays": "rays.npz", "beauty16": "beauty16.png", "hdr": "beauty_hdr.npz"}
+_NEED_LINEAR = ("beauty16", "hdr")  # need the renderer's linear image (Mitsuba)
 MESH_FILE = "scene.ply"
 
 
 def check_extras(extras, renderer: str) -> tuple:
-    """The extras as a sorted tuple, checked (``beauty16`` needs Mitsuba: POV-Ray's beauty is 8-bit)."""
+    """The extras as a sorted tuple, checked (``beauty16``, ``hdr`` need Mitsuba: POV-Ray's beauty is 8-bit)."""
     out = tuple(sorted(set(extras or ())))
     bad = [e for e in out if e not in EXTRAS]
     if bad:
         raise CatadioptricError(f"extras: expected some of {list(EXTRAS)}, got {bad}")
-    if "beauty16" in out and renderer != "mitsuba":
-        raise CatadioptricError(f"extras: beauty16 needs the mitsuba renderer (the {renderer} beauty is 8-bit), "
-                                f"got renderer {renderer!r}")
+    for e in _NEED_LINEAR:
+        if e in out and renderer != "mitsuba":
+            raise CatadioptricError(f"extras: {e} needs the mitsuba renderer (the {renderer} beauty is 8-bit), "
+                                    f"got renderer {renderer!r}")
     return out
 
 
@@ -80,11 +82,16 @@ def extra_blobs(extras, res, traced, pose) -> dict:
         from .groundtruth import write_npz
 
         out[EXTRA_FILES["rays"]] = write_npz(ray_maps(traced, pose))
+    if any(e in extras for e in _NEED_LINEAR) and res.linear is None:
+        raise CatadioptricError("extras: beauty16 and hdr need the renderer's linear image; this renderer gave none")
+    if "hdr" in extras:
+        from .groundtruth import write_npz
+
+        # Mitsuba renders in float32: nothing is lost
+        out[EXTRA_FILES["hdr"]] = write_npz({"linear_rgb": np.asarray(res.linear, dtype=np.float32)})
     if "beauty16" in extras:
         import cv2
 
-        if res.linear is None:
-            raise CatadioptricError("extras: beauty16 needs the renderer's linear image; this renderer gave none")
         ok, buf = cv2.imencode(".png", np.ascontiguousarray(linear_to_srgb16(res.linear)[..., ::-1]),
                                [cv2.IMWRITE_PNG_COMPRESSION, 6])
         if not ok:  # pragma: no cover - OpenCV encodes any uint16 image
