@@ -13,13 +13,33 @@ def _describe(a: np.ndarray) -> str:
     return f"an array of shape {a.shape}"
 
 
+def _kind_error(name: str, value, what: str) -> CatadioptricError:
+    return CatadioptricError(f"{name}: expected real numbers, got {what}")
+
+
 def as_float_array(value, name: str, last: int | tuple[int, ...] | None = None, *, finite: bool = True,
                    min_ndim: int = 0) -> np.ndarray:
-    """``value`` as a float64 array, checked for its trailing shape and finiteness."""
+    """``value`` as a float64 array, checked for its trailing shape and finiteness.
+
+    Only real numbers are accepted: complex values (whose imaginary part would be dropped),
+    booleans, dates and strings are refused rather than converted."""
+    if isinstance(value, (str, bytes, dict, set)):
+        raise _kind_error(name, value, f"{type(value).__name__} {value!r:.60}")
     try:
-        a = np.asarray(value, dtype=np.float64)
+        raw = np.asarray(value)
     except (TypeError, ValueError) as exc:
-        raise CatadioptricError(f"{name}: expected numbers, got {type(value).__name__} ({exc})") from None
+        raise _kind_error(name, value, f"{type(value).__name__} ({exc})") from None
+    if raw.dtype.kind not in "fiuO":
+        raise _kind_error(name, value, f"an array of dtype {raw.dtype}")
+    if raw.dtype.kind == "O":
+        bad = [v for v in raw.reshape(-1)[:100000]
+               if isinstance(v, (bool, np.bool_, str, bytes, complex, np.complexfloating))]
+        if bad:
+            raise _kind_error(name, value, f"an array holding {type(bad[0]).__name__} {bad[0]!r:.60}")
+    try:
+        a = np.asarray(raw, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise _kind_error(name, value, f"{type(value).__name__} ({exc})") from None
     if last is not None:
         tail = (last,) if isinstance(last, int) else tuple(last)
         if a.ndim < len(tail) or a.shape[a.ndim - len(tail):] != tail:
@@ -36,6 +56,10 @@ def as_float_array(value, name: str, last: int | tuple[int, ...] | None = None, 
 
 
 def as_scalar(value, name: str, *, positive: bool = False, finite: bool = True) -> float:
+    """``value`` as a float: a real number (not a bool, a string or a complex number)."""
+    if isinstance(value, (bool, np.bool_, str, bytes, complex, np.complexfloating)) or (
+            isinstance(value, np.ndarray) and value.dtype.kind not in "fiu"):
+        raise CatadioptricError(f"{name}: expected a real number, got {value!r}")
     try:
         f = float(value)
     except (TypeError, ValueError):
@@ -45,6 +69,17 @@ def as_scalar(value, name: str, *, positive: bool = False, finite: bool = True) 
     if positive and not f > 0:
         raise CatadioptricError(f"{name}: expected a positive number, got {f!r}")
     return f
+
+
+def as_count(value, name: str, *, minimum: int = 1, maximum: int | None = None) -> int:
+    """``value`` as an int in ``[minimum, maximum]`` (an integer type; not a bool, float or string)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise CatadioptricError(f"{name}: expected an integer, got {value!r}")
+    v = int(value)
+    if v < minimum or (maximum is not None and v > maximum):
+        want = f">= {minimum}" if maximum is None else f"in [{minimum}, {maximum}]"
+        raise CatadioptricError(f"{name}: expected an integer {want}, got {v}")
+    return v
 
 
 def as_rotation(value, name: str) -> np.ndarray:

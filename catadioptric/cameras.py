@@ -12,8 +12,8 @@ from functools import cached_property
 
 import numpy as np
 
-from ._checks import CatadioptricError, as_float_array, as_rotation, as_scalar
-from ._numeric import rowdot
+from ._checks import CatadioptricError, as_count, as_float_array, as_rotation, as_scalar
+from ._numeric import rowdot, unit
 from .mirrors import QuadricMirror
 
 __all__ = ["PinholeCamera", "CatadioptricCamera", "look_at_rotation"]
@@ -37,11 +37,15 @@ class PinholeCamera:
             raise CatadioptricError(
                 f"K: expected an upper-triangular intrinsic matrix with K[2,2] = 1, got {K.tolist()}"
             )
+        if not (K[0, 0] > 0 and K[1, 1] > 0):
+            # a negative focal length mirrors the image (u decreasing with x_cam): no camera of the OpenCV
+            # convention (x right, y down, z forward, right-handed) takes such pictures
+            raise CatadioptricError(
+                f"K: expected positive focal lengths K[0,0] > 0 and K[1,1] > 0 (a negative one mirrors the image; "
+                f"turn the camera with R_cam_from_mirror instead), got {K.tolist()}"
+            )
         for name in ("width", "height"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, np.integer)) and v > 0):
-                raise CatadioptricError(f"{name}: expected a positive integer number of pixels, got {v!r}")
-            object.__setattr__(self, name, int(v))
+            object.__setattr__(self, name, _pixels(getattr(self, name), name))
         K = K.copy()
         K.setflags(write=False)
         object.__setattr__(self, "K", K)
@@ -52,6 +56,7 @@ class PinholeCamera:
     @classmethod
     def from_fov(cls, width: int, height: int, fov_x_deg: float) -> "PinholeCamera":
         """Square pixels, centred principal point ((W-1)/2, (H-1)/2), horizontal field of view in degrees."""
+        width, height = _pixels(width, "width"), _pixels(height, "height")
         fov = as_scalar(fov_x_deg, "fov_x_deg", positive=True)
         if not fov < 180:
             raise CatadioptricError(f"fov_x_deg: expected a field of view below 180 degrees, got {fov!r}")
@@ -81,6 +86,7 @@ class PinholeCamera:
 
     def pixel_grid(self, step: int = 1) -> np.ndarray:
         """Pixel centres ``(H', W', 2)`` of every ``step``-th row and column."""
+        step = as_count(step, "step")
         u, v = np.meshgrid(np.arange(0, self.width, step, dtype=float), np.arange(0, self.height, step, dtype=float))
         return np.stack([u, v], axis=-1)
 
@@ -88,16 +94,35 @@ class PinholeCamera:
         return {"K": self.K.tolist(), "width": self.width, "height": self.height}
 
 
+def _pixels(v, name: str) -> int:
+    if isinstance(v, (bool, np.bool_)) or not (isinstance(v, (int, np.integer)) and v > 0):
+        raise CatadioptricError(f"{name}: expected a positive integer number of pixels, got {v!r}")
+    return int(v)
+
+
+def _keys(d, name: str, keys) -> None:
+    if not isinstance(d, dict):
+        raise CatadioptricError(f"{name}: expected a dict with keys {list(keys)}, got {type(d).__name__}")
+    missing = [k for k in keys if k not in d]
+    if missing:
+        raise CatadioptricError(f"{name}: expected a dict with keys {list(keys)}, got one without {missing}")
+
+
 def look_at_rotation(center, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:
     """``R_cam_from_mirror`` of an OpenCV camera at ``center`` looking at ``target``;
     image 'up' (-y_cam) is as close as possible to ``up``."""
     c = as_float_array(center, "center", 3)
     t = as_float_array(target, "target", 3)
-    z = t - c
-    if np.linalg.norm(z) == 0:
-        raise CatadioptricError(f"target: expected a point other than the centre {c.tolist()}, got the same point")
-    z = z / np.linalg.norm(z)
-    up = np.asarray(up, dtype=float)
+    for name, v in (("center", c), ("target", t)):
+        if v.shape != (3,):
+            raise CatadioptricError(f"{name}: expected a 3-vector, got an array of shape {v.shape}")
+    z = unit(t - c)
+    if not np.all(np.isfinite(z)):
+        raise CatadioptricError(f"target: expected a point other than the centre {c.tolist()}, got {t.tolist()}")
+    up = as_float_array(up, "up", 3)
+    if up.shape != (3,) or not np.any(up != 0):
+        raise CatadioptricError(f"up: expected a non-zero 3-vector, got {up.tolist()}")
+    up = unit(up)
     if np.linalg.norm(np.cross(z, up)) < 1e-9:
         up = np.array([0.0, 1.0, 0.0]) if abs(z[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
     x = np.cross(z, up)  # y_cam = -up-ish, x_cam = y_cam x z_cam ... keep right-handed: x = y cross z
@@ -144,6 +169,8 @@ class CatadioptricCamera:
                           up=(0.0, 1.0, 0.0)) -> "CatadioptricCamera":
         """A camera at ``center`` whose optical axis points at ``target`` (default: the
         middle of the mirror patch on the axis)."""
+        if not isinstance(mirror, QuadricMirror):
+            raise CatadioptricError(f"mirror: expected a QuadricMirror, got {type(mirror).__name__}")
         c = as_float_array(center, "center", 3)
         if target is None:
             target = np.array([0.0, 0.0, 0.5 * (mirror.z_min + mirror.z_max)])
@@ -172,14 +199,20 @@ class CatadioptricCamera:
     @property
     def is_axial(self) -> bool:
         """True when the camera centre lies on the mirror's axis (every reflected ray meets the axis)."""
-        return bool(np.hypot(self.center[0], self.center[1]) <= 1e-12 * max(1.0, np.linalg.norm(self.center)))
+        from .solvers import on_axis
+
+        return on_axis(self.mirror, self.center)
 
     @cached_property
     def solver(self):
         """The reflection-point solver of lowest degree for this configuration (docs/solvers.md)."""
         from .solvers import select_solver
 
-        return select_solver(self.mirror, self.center, viewpoint=self.viewpoint)
+        try:
+            return select_solver(self.mirror, self.center, viewpoint=self.viewpoint)
+        except ArithmeticError as exc:
+            raise CatadioptricError(f"mirror, center: this configuration is beyond the solvers' float64 accuracy "
+                                    f"({exc})") from None
 
     def to_camera(self, X_M) -> np.ndarray:
         X = np.asarray(X_M, dtype=float)
@@ -241,6 +274,10 @@ class CatadioptricCamera:
 
     @classmethod
     def from_dict(cls, d: dict) -> "CatadioptricCamera":
-        return cls(QuadricMirror(**d["mirror"]), PinholeCamera(np.array(d["pinhole"]["K"]), d["pinhole"]["width"],
-                                                                d["pinhole"]["height"]),
-                   np.array(d["center"]), np.array(d["R_cam_from_mirror"]))
+        """The camera of :meth:`to_dict`'s dictionary."""
+        _keys(d, "d", ("mirror", "pinhole", "center", "R_cam_from_mirror"))
+        _keys(d["mirror"], "d['mirror']", ("A", "B", "C", "z_min", "z_max"))
+        _keys(d["pinhole"], "d['pinhole']", ("K", "width", "height"))
+        m, p = d["mirror"], d["pinhole"]
+        return cls(QuadricMirror(m["A"], m["B"], m["C"], m["z_min"], m["z_max"]),
+                   PinholeCamera(p["K"], p["width"], p["height"]), d["center"], d["R_cam_from_mirror"])

@@ -15,7 +15,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Piece", "trace"]
+from ._checks import CatadioptricError, as_count, as_scalar
+
+__all__ = ["Piece", "trace", "sweep_options", "MAX_VERTICES"]
+
+MIN_STEP_PX = 1e-6
+MAX_VERTICES = 250_000  # samples of one curve: a curve across a 16k image at 1 px needs far fewer
+
+
+def sweep_options(max_step_px, n_start, max_rounds):
+    """The checked options of a curve sweep (:func:`trace`)."""
+    step = as_scalar(max_step_px, "max_step_px", positive=True)
+    if step < MIN_STEP_PX:
+        raise CatadioptricError(f"max_step_px: expected a step of at least {MIN_STEP_PX:g} px (pixels are exact to "
+                                f"about 1e-9 px; finer steps only multiply vertices), got {step!r}")
+    return (step, as_count(n_start, "n_start", minimum=2, maximum=1_000_000),
+            as_count(max_rounds, "max_rounds", minimum=0, maximum=10_000))
 
 
 @dataclass
@@ -42,8 +57,10 @@ def trace(evaluate, start, stop, *, periodic=False, max_step_px=1.0, n_start=64,
     ``seeds = (curve_ids, params)``: extra starting samples, e.g. parameters known to be
     seen by some pixel (see :func:`image_seeds`), so that pieces visible over a tiny range of
     the parameter are not missed between the uniform samples.
-    Returns, for each curve, its list of pieces.
+    Returns, for each curve, its list of pieces. A curve that needs more than
+    :data:`MAX_VERTICES` samples (a step far below a pixel) is refused, not traced for ever.
     """
+    max_step_px, n_start, max_rounds = sweep_options(max_step_px, n_start, max_rounds)
     start = np.atleast_1d(np.asarray(start, float))
     stop = np.atleast_1d(np.asarray(stop, float))
     C = len(start)
@@ -84,6 +101,11 @@ def trace(evaluate, start, stop, *, periodic=False, max_step_px=1.0, n_start=64,
             break
         l, rr = left[need], right[need]
         mc = cid[l]
+        counts = np.bincount(np.r_[cid, mc], minlength=C)
+        if counts.max() > MAX_VERTICES:
+            raise CatadioptricError(
+                f"max_step_px: a step of {max_step_px!r} px needs more than {MAX_VERTICES} samples on one curve; "
+                f"expected a larger step")
         mid = 0.5 * (pl[need] + pr_[need])
         if periodic:
             mid = np.where(mid >= stop[mc], mid - (stop - start)[mc], mid)

@@ -1,7 +1,8 @@
 """Images of 3-D lines (exact curves) and Pluecker coordinates.
 
-A line ``q + lambda s`` is swept by the angle ``phi`` in ``lambda = tan(phi)``: the
-homogeneous point ``(q cos(phi) + s sin(phi), cos(phi))`` runs along the whole line and
+A line ``q + lambda s`` is swept by the angle ``phi`` in ``lambda = l tan(phi)``, ``l`` the
+mirror's scale (so that the sweep does not depend on the length unit): the homogeneous
+point ``(q cos(phi) + l s sin(phi), cos(phi))`` runs along the whole line and
 reaches the points at infinity of ``-s`` and ``+s`` at ``phi = -pi/2`` and ``+pi/2``, so
 a line's image is traced in one piece of parameter, its two vanishing points included
 as the limits. Segments use the sub-range of their end points.
@@ -12,10 +13,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._checks import CatadioptricError, as_float_array
-from ._numeric import rowdot
+from ._checks import CatadioptricError, as_count, as_float_array
+from ._numeric import norm, rowdot, unit
 from .cameras import CatadioptricCamera
-from .curves import Piece, trace
+from .curves import Piece, sweep_options, trace
 from .projection import solve_targets
 
 __all__ = ["LineImage", "line_image", "segment_image", "pluecker", "pluecker_point_direction"]
@@ -59,10 +60,11 @@ class LineImage:
 
 def _evaluator(cam, q, s):
     K = cam.solver.max_solutions
+    ell = cam.mirror.scale
 
     def evaluate(ids, phi):
         cphi, sphi = np.cos(phi), np.sin(phi)
-        # lambda = tan(phi); at |phi| = pi/2 the target is the direction +-s
+        # lambda = l tan(phi); at |phi| = pi/2 the target is the direction +-s
         inf = np.abs(cphi) < 1e-15
         fin = ~inf
         uv = np.full((len(ids), K, 2), np.nan)
@@ -73,7 +75,8 @@ def _evaluator(cam, q, s):
                 continue
             i = ids[mask]
             if w:
-                tg = q[i] + (sphi[mask] / cphi[mask])[:, None] * s[i]
+                with np.errstate(over="ignore", invalid="ignore"):  # beyond the float range: no image
+                    tg = q[i] + (ell * sphi[mask] / cphi[mask])[:, None] * s[i]
             else:
                 tg = np.sign(sphi[mask])[:, None] * s[i]
             fs = solve_targets(cam, tg, w)
@@ -98,7 +101,7 @@ def _slots(owner):
 
 
 def _line_seeds(cam, q, s, step, max_per_line=256):
-    """Angles phi = arctan(lambda) of the line points that grid pixels see: the reflected ray of
+    """Angles phi = arctan(lambda / l) of the line points that grid pixels see: the reflected ray of
     a grid pixel passing the line within the grid's angular resolution, in front of the mirror."""
     from .curves import pixel_grid_rays
 
@@ -110,17 +113,17 @@ def _line_seeds(cam, q, s, step, max_per_line=256):
         b = rowdot(d, s[i])
         sw = rowdot(w0, s[i])
         e = np.sum(d * w0, axis=1)
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             t = (b * sw - e) / (1.0 - b * b)
             lam = sw + t * b
-        gap = np.linalg.norm(o + t[:, None] * d - (q[i] + lam[:, None] * s[i]), axis=1)
-        hit = (t > 0) & (gap <= 1.5 * ang * t)
+            gap = norm(o + t[:, None] * d - (q[i] + lam[:, None] * s[i]))
+            hit = (t > 0) & (gap <= 1.5 * ang * t)
         if np.any(hit):
             lam_hit = lam[hit]
             if len(lam_hit) > max_per_line:
                 lam_hit = np.sort(lam_hit)[np.linspace(0, len(lam_hit) - 1, max_per_line).astype(int)]
             ids.append(np.full(len(lam_hit), i))
-            pars.append(np.arctan(lam_hit))
+            pars.append(np.arctan(lam_hit / cam.mirror.scale))
     if not ids:
         return None
     return np.concatenate(ids), np.concatenate(pars)
@@ -134,26 +137,29 @@ def line_image(cam: CatadioptricCamera, points, directions, *, lam_range=None, m
     whole line, ``-inf .. inf``, whose image ends at its vanishing points). Each image is
     every observable part of the line (in the patch, unobstructed, in front of the
     camera), as pieces whose consecutive vertices are at most ``max_step_px`` apart.
-    Besides uniform samples of the angle ``phi = arctan(lambda)``, the sweep starts from the
-    line points seen by every ``seed_step``-th pixel (so that parts visible over a tiny range
-    of lambda, e.g. near a caustic, are found).
+    Besides uniform samples of the angle ``phi = arctan(lambda / l)`` (``l`` the mirror's
+    scale), the sweep starts from the line points seen by every ``seed_step``-th pixel (so
+    that parts visible over a tiny range of lambda, e.g. near a caustic, are found).
     """
     q = as_float_array(points, "points", 3).reshape(-1, 3)
     s = as_float_array(directions, "directions", 3).reshape(-1, 3)
     if q.shape != s.shape:
         raise CatadioptricError(f"points, directions: expected the same number of lines, got {len(q)} and {len(s)}")
-    ns = np.linalg.norm(s, axis=1)
-    if np.any(ns == 0):
-        raise CatadioptricError(f"directions: expected non-zero vectors, got a zero vector at index {int(np.argmin(ns))}")
-    s = s / ns[:, None]
+    sweep_options(max_step_px, n_start, 60)
+    seed_step = as_count(seed_step, "seed_step", maximum=1_000_000)
+    zero = ~np.any(s != 0, axis=1)
+    if np.any(zero):
+        raise CatadioptricError(f"directions: expected non-zero vectors, got a zero vector at index {int(np.argmax(zero))}")
+    s = unit(s)
     N = len(q)
+    ell = cam.mirror.scale
     if lam_range is None:
         lo, hi = np.full(N, -np.pi / 2), np.full(N, np.pi / 2)
     else:
         lr = as_float_array(lam_range, "lam_range", 2, finite=False).reshape(-1, 2)
         if len(lr) != N or np.any(np.isnan(lr)) or np.any(lr[:, 0] >= lr[:, 1]):
             raise CatadioptricError(f"lam_range: expected ({N}, 2) increasing pairs, got {lr.tolist()[:3]}...")
-        lo, hi = np.arctan(lr[:, 0]), np.arctan(lr[:, 1])
+        lo, hi = np.arctan(lr[:, 0] / ell), np.arctan(lr[:, 1] / ell)
     if N == 0:
         return []
     pieces = trace(_evaluator(cam, q, s), lo, hi, max_step_px=max_step_px, n_start=n_start,
@@ -162,8 +168,9 @@ def line_image(cam: CatadioptricCamera, points, directions, *, lam_range=None, m
     out = []
     for i in range(N):
         for p in pieces[i]:
-            p.params = np.tan(p.params)
-            p.params[np.abs(p.params) > 1e15] = np.sign(p.params[np.abs(p.params) > 1e15]) * np.inf
+            t = np.tan(p.params)
+            p.params = ell * t
+            p.params[np.abs(t) > 1e15] = np.copysign(np.inf, t[np.abs(t) > 1e15])
         out.append(LineImage(pieces[i], np.stack([vp.uv[i], vp.uv[N + i]]), np.stack([vp.valid[i], vp.valid[N + i]])))
     return out
 
@@ -172,8 +179,15 @@ def segment_image(cam: CatadioptricCamera, p0, p1, **kwargs) -> list[LineImage]:
     """Exact images of the segments ``p0[i] .. p1[i]`` (``(N, 3)`` each, in M)."""
     a = as_float_array(p0, "p0", 3).reshape(-1, 3)
     b = as_float_array(p1, "p1", 3).reshape(-1, 3)
-    d = b - a
-    L = np.linalg.norm(d, axis=1)
-    if np.any(L == 0):
-        raise CatadioptricError(f"p0, p1: expected distinct end points, got equal ones at index {int(np.argmin(L))}")
-    return line_image(cam, a, d / L[:, None], lam_range=np.stack([np.zeros_like(L), L], axis=1), **kwargs)
+    if a.shape != b.shape:
+        raise CatadioptricError(f"p0, p1: expected the same number of end points, got {len(a)} and {len(b)}")
+    with np.errstate(over="ignore"):
+        d = b - a
+    same = ~np.any(d != 0, axis=1)
+    if np.any(same):
+        raise CatadioptricError(f"p0, p1: expected distinct end points, got equal ones at index {int(np.argmax(same))}")
+    if not np.all(np.isfinite(d)):
+        raise CatadioptricError(f"p0, p1: expected end points less than the float range apart, got a segment "
+                                f"longer than that at index {int(np.argmax(~np.all(np.isfinite(d), axis=1)))}")
+    L = norm(d)
+    return line_image(cam, a, unit(d), lam_range=np.stack([np.zeros_like(L), L], axis=1), **kwargs)

@@ -17,6 +17,16 @@ from ._checks import CatadioptricError, as_float_array, as_scalar
 __all__ = ["QuadricMirror"]
 
 _REL = 1e-12
+_MAX_A = 1e6  # |A| = (across / along)^2 of the semi-axes: beyond, the solvers lose float64 accuracy
+
+
+def _length(value, name: str) -> float:
+    """A positive length whose square is a normal float (the mirror equation holds squares)."""
+    v = as_scalar(value, name, positive=True)
+    if not 1e-150 <= v <= 1e150:
+        raise CatadioptricError(f"{name}: expected a length between 1e-150 and 1e150 (its square must be a normal "
+                                f"float), got {v!r}")
+    return v
 
 
 @dataclass(frozen=True)
@@ -37,17 +47,36 @@ class QuadricMirror:
                 f"z_min, z_max: expected z_min < z_max, got z_min={self.z_min!r} >= z_max={self.z_max!r}"
             )
         A, B, C = self.A, self.B, self.C
-        if A > 0 and C + B * B / (4 * A) <= 0:
+        if abs(A) > _MAX_A:
+            raise CatadioptricError(
+                f"A: expected |A| <= {_MAX_A:g} (A is the squared ratio of the semi-axes across and along the axis; "
+                f"a mirror that flat or that slender is beyond float64 accuracy), got {A!r}"
+            )
+        with np.errstate(over="ignore", invalid="ignore"):
+            k = C + B * B / (4 * A) if A != 0 else C
+            ends = [float(self.radius_squared(z)) for z in (self.z_min, self.z_max)]
+        if not (np.isfinite(k) and all(np.isfinite(ends))):
+            raise CatadioptricError(
+                f"A, B, C: expected a surface whose size is a finite float, got C + B^2/(4A) = {k!r} and "
+                f"x^2 + y^2 = {ends} at z_min, z_max for A={A!r}, B={B!r}, C={C!r}"
+            )
+        if A > 0 and k <= 0:
             raise CatadioptricError(
                 f"A, B, C: the surface is empty (an ellipsoid needs C + B^2/(4A) > 0, "
-                f"got {C + B * B / (4 * A)!r} for A={A!r}, B={B!r}, C={C!r})"
+                f"got {k!r} for A={A!r}, B={B!r}, C={C!r})"
             )
         if A == 0 and B == 0 and C <= 0:
             raise CatadioptricError(f"C: a cylinder (A = B = 0) needs C > 0, got C={C!r}")
-        if not self._patch_nonempty():
+        widest = self._patch_widest()
+        if widest < 0:
             raise CatadioptricError(
                 f"z_min, z_max: the patch z in [{self.z_min!r}, {self.z_max!r}] holds no point of the surface "
                 f"(x^2 + y^2 = C - A z^2 - B z is negative there)"
+            )
+        if widest == 0:
+            raise CatadioptricError(
+                f"z_min, z_max: the patch z in [{self.z_min!r}, {self.z_max!r}] touches the surface at one height "
+                f"only (x^2 + y^2 = C - A z^2 - B z is zero there to rounding): expected a patch with an area"
             )
 
     # ------------------------------------------------------------------ geometry
@@ -56,13 +85,16 @@ class QuadricMirror:
         z = np.asarray(z, dtype=float)
         return self.C - self.A * z * z - self.B * z
 
-    def _patch_nonempty(self) -> bool:
+    def _patch_widest(self) -> float:
+        """The largest ``x^2 + y^2`` over the patch; 0 when it is zero to the rounding of its terms."""
         zs = [self.z_min, self.z_max]
         if self.A != 0:
             zc = -self.B / (2 * self.A)
             if self.z_min < zc < self.z_max:
                 zs.append(zc)
-        return max(float(self.radius_squared(z)) for z in zs) >= 0
+        best, size = max((float(self.radius_squared(z)), abs(self.C) + abs(self.B * z) + abs(self.A) * z * z)
+                         for z in zs)
+        return 0.0 if abs(best) <= 16 * np.finfo(float).eps * size else best
 
     def implicit(self, points) -> np.ndarray:
         """``Omega(r)`` for points ``(..., 3)``: zero on the surface."""
@@ -139,7 +171,7 @@ class QuadricMirror:
     @classmethod
     def sphere(cls, radius, z_min, z_max, *, center_z=0.0) -> "QuadricMirror":
         """Sphere of ``radius`` centred at ``(0, 0, center_z)``."""
-        r = as_scalar(radius, "radius", positive=True)
+        r = _length(radius, "radius")
         z0 = as_scalar(center_z, "center_z")
         return cls(1.0, -2.0 * z0, r * r - z0 * z0, z_min, z_max)
 
@@ -147,8 +179,8 @@ class QuadricMirror:
     def ellipsoid(cls, a, c, z_min, z_max, *, center_z=0.0) -> "QuadricMirror":
         """Ellipsoid with semi-axis ``a`` across the axis and ``c`` along it, centred at ``center_z``
         (prolate when c > a: foci at ``center_z +- sqrt(c^2 - a^2)``)."""
-        a = as_scalar(a, "a", positive=True)
-        c = as_scalar(c, "c", positive=True)
+        a = _length(a, "a")
+        c = _length(c, "c")
         z0 = as_scalar(center_z, "center_z")
         A = (a / c) ** 2
         return cls(A, -2.0 * A * z0, a * a - A * z0 * z0, z_min, z_max)
@@ -158,7 +190,7 @@ class QuadricMirror:
         """Prolate ellipsoid with foci on the axis at ``z_focus1``, ``z_focus2`` and semi-axis ``a`` across."""
         f1 = as_scalar(z_focus1, "z_focus1")
         f2 = as_scalar(z_focus2, "z_focus2")
-        a = as_scalar(a, "a", positive=True)
+        a = _length(a, "a")
         if f1 == f2:
             raise CatadioptricError(f"z_focus1, z_focus2: expected two distinct foci, got both {f1!r}")
         f = abs(f2 - f1) / 2
@@ -168,8 +200,8 @@ class QuadricMirror:
     def hyperboloid(cls, a, c, z_min, z_max, *, center_z=0.0) -> "QuadricMirror":
         """Two-sheet hyperboloid ``(z - center_z)^2 / c^2 - (x^2 + y^2) / a^2 = 1``
         (foci at ``center_z +- sqrt(a^2 + c^2)``, vertices at ``center_z +- c``)."""
-        a = as_scalar(a, "a", positive=True)
-        c = as_scalar(c, "c", positive=True)
+        a = _length(a, "a")
+        c = _length(c, "c")
         z0 = as_scalar(center_z, "center_z")
         A = -((a / c) ** 2)
         return cls(A, -2.0 * A * z0, -a * a - A * z0 * z0, z_min, z_max)
@@ -179,7 +211,7 @@ class QuadricMirror:
         """Two-sheet hyperboloid with foci at ``z_focus1``, ``z_focus2`` and vertices ``c`` from the centre."""
         f1 = as_scalar(z_focus1, "z_focus1")
         f2 = as_scalar(z_focus2, "z_focus2")
-        c = as_scalar(c, "c", positive=True)
+        c = _length(c, "c")
         f = abs(f2 - f1) / 2
         if not c < f:
             raise CatadioptricError(f"c: a hyperboloid needs c < half the focal distance {f!r}, got {c!r}")
@@ -188,9 +220,9 @@ class QuadricMirror:
     @classmethod
     def paraboloid(cls, focal_length, z_min, z_max, *, vertex_z=0.0, opening=+1) -> "QuadricMirror":
         """Paraboloid ``x^2 + y^2 = 4 f opening (z - vertex_z)``, focus at ``vertex_z + opening f``."""
-        f = as_scalar(focal_length, "focal_length", positive=True)
+        f = _length(focal_length, "focal_length")
         zv = as_scalar(vertex_z, "vertex_z")
-        if opening not in (1, -1):
+        if isinstance(opening, (bool, np.bool_)) or opening not in (1, -1):
             raise CatadioptricError(f"opening: expected +1 (opens to +z) or -1, got {opening!r}")
         return cls(0.0, -4.0 * f * opening, -4.0 * f * opening * zv, z_min, z_max)
 
@@ -204,7 +236,7 @@ class QuadricMirror:
 
     @classmethod
     def cylinder(cls, radius, z_min, z_max) -> "QuadricMirror":
-        r = as_scalar(radius, "radius", positive=True)
+        r = _length(radius, "radius")
         return cls(0.0, 0.0, r * r, z_min, z_max)
 
     def to_dict(self) -> dict:

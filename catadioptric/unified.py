@@ -27,7 +27,8 @@ from typing import Optional
 
 import numpy as np
 
-from ._checks import CatadioptricError, as_float_array, as_rotation, as_scalar
+from ._checks import CatadioptricError, as_count, as_float_array, as_rotation, as_scalar
+from ._numeric import max_abs, rowdot, unit
 from .cameras import CatadioptricCamera
 from .solvers.reflection import reflect
 
@@ -164,7 +165,7 @@ class UnifiedCamera:
         for name in ("width", "height"):
             v = getattr(self, name)
             if v is not None:
-                if not (isinstance(v, (int, np.integer)) and v > 0):
+                if isinstance(v, (bool, np.bool_)) or not (isinstance(v, (int, np.integer)) and v > 0):
                     raise CatadioptricError(f"{name}: expected a positive integer number of pixels or None, got {v!r}")
                 object.__setattr__(self, name, int(v))
         if (self.width is None) != (self.height is None):
@@ -231,10 +232,8 @@ class UnifiedCamera:
     def to_sphere(self, points) -> np.ndarray:
         """Unit sphere points ``X_s (..., 3)`` of points ``(..., 3)`` in M (NaN at the viewpoint)."""
         P = as_float_array(points, "points", 3)
-        Y = (P - self.center) @ self.R_sphere_from_mirror.T
-        n = np.linalg.norm(Y, axis=-1, keepdims=True)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.where(n > 0, Y / n, np.nan)
+        with np.errstate(over="ignore", invalid="ignore"):
+            return rowdot(unit(P - self.center), self.R_sphere_from_mirror.T)
 
     def project(self, points) -> UnifiedProjection:
         """Images of points ``(..., 3)`` in M: ``.uv (..., 2)``, ``.valid``, ``.in_image``, ``.sphere_points``.
@@ -266,7 +265,8 @@ class UnifiedCamera:
         uv = as_float_array(uv, "uv", 2)
         Kinv = np.linalg.inv(self.K)
         m = uv[..., 0:1] * Kinv[:, 0] + uv[..., 1:2] * Kinv[:, 1] + Kinv[:, 2]
-        q = m @ self.R_tilt  # R_tilt^T m, row-vector form
+        # homogeneous: scaled by its largest component, so that far pixels neither overflow nor underflow
+        q = rowdot(m / max_abs(m), self.R_tilt)  # R_tilt^T m, row-vector form
         xi = self.xi
         qq = np.sum(q * q, axis=-1)
         qz = q[..., 2]
@@ -283,17 +283,22 @@ class UnifiedCamera:
         lo, hi = self.sphere_z_range
         with np.errstate(invalid="ignore"):
             valid = (disc >= 0) & (w > 0) & (zs >= lo) & (zs <= hi)
-        d = Xs @ self.R_sphere_from_mirror  # R^T X_s
+        d = rowdot(Xs, self.R_sphere_from_mirror)  # R^T X_s
         d = np.where(valid[..., None], d, np.nan)
         o = np.broadcast_to(self.center, d.shape).copy()
         return UnifiedRays(o, d, valid)
 
     # ------------------------------------------------------------------ lines
-    def _plane_normals(self, points, directions) -> np.ndarray:
+    def _plane_normals(self, points, directions):
+        """Normals (sphere frame, any length) of the planes through the viewpoint and the lines, and the
+        size of the points' coordinates (the rounding of ``p - c`` is relative to it)."""
         p = as_float_array(points, "points", 3)
         d = _unit_directions(directions, "directions")
-        n = np.cross(p - self.center, d)
-        return n @ self.R_sphere_from_mirror.T
+        v = p - self.center
+        size = np.maximum(max_abs(p), np.max(np.abs(self.center)))
+        scale = np.where(max_abs(v) > 0, max_abs(v), 1.0)
+        n = np.cross(v / scale, d)
+        return rowdot(n, self.R_sphere_from_mirror.T), size / scale
 
     def line_image(self, points, directions) -> np.ndarray:
         """The conics ``C (..., 3, 3)`` (symmetric, unit Frobenius norm) of the images of the 3-D
@@ -306,11 +311,9 @@ class UnifiedCamera:
         The conic holds the images of the whole great circle ``n . X_s = 0``: the line's half
         and the half of the opposite directions. NaN for lines through the viewpoint.
         """
-        n = self._plane_normals(points, directions)
-        nn = np.linalg.norm(n, axis=-1, keepdims=True)
-        tol = 1e-12 * max(1.0, float(np.max(np.abs(self.center))))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            n = np.where(nn > tol, n / nn, np.nan)
+        n, size = self._plane_normals(points, directions)
+        # a line through the viewpoint to the rounding of p - c has no plane: NaN
+        n = np.where(max_abs(n) > 1e-12 * size, unit(n), np.nan)
         Om = conic_from_plane_normal(n, self.xi)
         Kinv = np.linalg.inv(self.K)
         T = self.R_tilt.T @ Kinv  # p ~ T @ pixel
@@ -323,15 +326,13 @@ class UnifiedCamera:
         """``num`` samples of the image of each 3-D line (points ``(..., 3)``, directions ``(..., 3)``
         in M): the half great circle of the line's directions from the viewpoint, uniformly in
         angle from the vanishing point of ``-d`` to that of ``+d``, projected."""
-        if not (isinstance(num, (int, np.integer)) and num >= 2):
-            raise CatadioptricError(f"num: expected an integer >= 2, got {num!r}")
+        num = as_count(num, "num", minimum=2, maximum=10_000_000)
         p = as_float_array(points, "points", 3)
         d = _unit_directions(directions, "directions")
         v = p - self.center
+        v = v / np.where(max_abs(v) > 0, max_abs(v), 1.0)
         foot = v - np.sum(v * d, axis=-1, keepdims=True) * d
-        fn = np.linalg.norm(foot, axis=-1, keepdims=True)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            a = np.where(fn > 0, foot / fn, np.nan)
+        a = unit(foot)
         R = self.R_sphere_from_mirror
         a = a @ R.T
         b = d @ R.T
@@ -411,12 +412,12 @@ class UnifiedCamera:
 
 def _unit_directions(directions, name: str) -> np.ndarray:
     d = as_float_array(directions, name, 3)
-    n = np.linalg.norm(d, axis=-1, keepdims=True)
-    if np.any(n == 0):
-        bad = np.argwhere(n[..., 0] == 0)[0]
+    zero = ~np.any(d != 0, axis=-1)
+    if np.any(zero):
+        bad = np.argwhere(zero)[0]
         raise CatadioptricError(f"{name}: expected nonzero direction vectors, got a zero vector at index "
                                 f"{tuple(int(i) for i in bad)}")
-    return d / n
+    return unit(d)
 
 
 def conic_from_plane_normal(n, xi: float) -> np.ndarray:

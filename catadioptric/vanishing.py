@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._checks import CatadioptricError, as_float_array
-from ._numeric import rowdot
+from ._numeric import rowdot, unit
 from .cameras import CatadioptricCamera
 from .projection import solve_targets
 
@@ -75,11 +75,11 @@ def vanishing_points(cam: CatadioptricCamera, directions, *, which: str = "+s") 
     s = as_float_array(directions, "directions", 3)
     shape = s.shape[:-1]
     flat = s.reshape(-1, 3)
-    nrm = np.linalg.norm(flat, axis=-1)
-    if np.any(nrm == 0):
-        i = int(np.argmax(nrm == 0))
+    zero = ~np.any(flat != 0, axis=-1)
+    if np.any(zero):
+        i = int(np.argmax(zero))
         raise CatadioptricError(f"directions: expected non-zero vectors, got a zero vector at flat index {i}")
-    flat = flat / nrm[:, None]
+    flat = unit(flat)
     fs = solve_targets(cam, flat, 0.0, backward=(which == "both"))
     N, K = len(flat), cam.solver.max_solutions
     sign_flat = np.where(fs.forward, 1, -1).astype(np.int8)
@@ -172,12 +172,13 @@ def vanishing_curve(cam: CatadioptricCamera, normal, *, max_step_px: float = 1.0
     vanishing point (:func:`catadioptric.curves.trace` refines the sweep where neighbours
     are too far apart and where the curve leaves the observable region, down to 1e-9 rad).
     """
-    from .curves import trace
+    from .curves import sweep_options, trace
 
     m = as_float_array(normal, "normal", 3)
-    if m.shape != (3,) or np.linalg.norm(m) == 0:
+    if m.shape != (3,) or not np.any(m != 0):
         raise CatadioptricError(f"normal: expected a non-zero 3-vector, got {m.tolist()}")
-    m = m / np.linalg.norm(m)
+    sweep_options(max_step_px, n_start, max_rounds)
+    m = unit(m)
     a = np.array([1.0, 0, 0]) if abs(m[0]) < 0.9 else np.array([0, 1.0, 0])
     e1 = np.cross(m, a)
     e1 /= np.linalg.norm(e1)

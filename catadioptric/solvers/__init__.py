@@ -27,7 +27,15 @@ from .sphere import SphereSolver
 SOLVERS = {cls.name: cls for cls in (CentralSolver, ConeSolver, CylinderSolver, SphereSolver, ParaboloidSolver,
                                     AxialSolver, GeneralSolver)}
 
-__all__ = ["select_solver", "SOLVERS"]
+__all__ = ["select_solver", "on_axis", "SOLVERS"]
+
+
+def on_axis(mirror, center) -> bool:
+    """True when ``center`` lies on the mirror's axis to rounding: its distance from the axis is
+    below 1e-12 of the larger of the mirror's scale and its distance from the origin (relative,
+    so that the answer does not depend on the length unit)."""
+    c = np.asarray(center, float)
+    return bool(np.hypot(c[0], c[1]) <= 1e-12 * max(mirror.scale, float(np.max(np.abs(c)))))
 
 
 def select_solver(mirror, center, *, viewpoint=None, force: str | None = None):
@@ -37,7 +45,7 @@ def select_solver(mirror, center, *, viewpoint=None, force: str | None = None):
     ``force``: a solver name from :data:`SOLVERS` (for tests and benchmarks); it must apply.
     """
     args = (mirror.A, mirror.B, mirror.C, mirror.z_min, mirror.z_max, np.asarray(center, float), mirror.scale)
-    axial = bool(np.hypot(center[0], center[1]) <= 1e-12 * max(1.0, float(np.linalg.norm(center))))
+    axial = on_axis(mirror, center)
     kind = mirror.kind
     if force is not None:
         if force == "central":
