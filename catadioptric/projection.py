@@ -10,12 +10,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._checks import as_float_array
-from ._numeric import rowdot
+from ._numeric import norm, rowdot, unit
 from .cameras import CatadioptricCamera
 from .mirrors import QuadricMirror
 from .solvers.reflection import reflect
 
 __all__ = ["Rays", "Projections", "backproject", "project", "intersect_mirror", "visibility"]
+
+# the patch's ends, widened by this fraction of the mirror's scale: a point computed at an end (a vertex at
+# z_max, a rim) rounds to either side; the solvers, back-projection and forward projection keep it alike
+RIM = 1e-12
 
 
 @dataclass
@@ -49,53 +53,62 @@ class Projections:
     in_image: np.ndarray
 
 
-def _quadratic_coeffs(mirror: QuadricMirror, o: np.ndarray, d: np.ndarray):
-    """``Omega(o + t d) = a t^2 + b t + c``."""
-    A, B, C = mirror.A, mirror.B, mirror.C
+def _quadratic_coeffs(A: float, B: float, C: float, o: np.ndarray, d: np.ndarray):
+    """``Omega(o + t d) = a t^2 + b t + c`` for the mirror ``x^2 + y^2 + A z^2 + B z - C``."""
     a = d[..., 0] ** 2 + d[..., 1] ** 2 + A * d[..., 2] ** 2
     b = 2 * (o[..., 0] * d[..., 0] + o[..., 1] * d[..., 1] + A * o[..., 2] * d[..., 2]) + B * d[..., 2]
     c = o[..., 0] ** 2 + o[..., 1] ** 2 + A * o[..., 2] ** 2 + B * o[..., 2] - C
     return a, b, c
 
 
-def intersect_mirror(mirror: QuadricMirror, origins, directions, t_min: float = 0.0):
+def _normalised(mirror: QuadricMirror):
+    """The mirror's coefficients with lengths in units of its scale (every test below is unit-free)."""
+    L = mirror.scale
+    return L, mirror.A, mirror.B / L, mirror.C / (L * L), mirror.z_min / L, mirror.z_max / L
+
+
+def intersect_mirror(mirror: QuadricMirror, origins, directions, t_min: float = 0.0, *, rim: float = 0.0):
     """First parameter ``t > t_min`` at which ``origins + t directions`` meets the mirror
-    patch (NaN where none); hits of the quadric outside the patch do not count."""
-    o = np.asarray(origins, dtype=float)
+    patch (NaN where none); hits of the quadric outside the patch do not count. ``rim``: the
+    patch's ends widened by this fraction of the mirror's scale (rounding of points computed
+    at an end). Computed in units of the mirror's scale along unit directions, so that the
+    answer does not depend on the length unit nor on the length of ``directions``."""
+    L, A, B, C, zlo, zhi = _normalised(mirror)
+    o = np.asarray(origins, dtype=float) / L
     d = np.asarray(directions, dtype=float)
-    a, b, c = _quadratic_coeffs(mirror, o, d)
+    dn = norm(d)
+    u = unit(d)
+    a, b, c = _quadratic_coeffs(A, B, C, o, u)
     disc = b * b - 4 * a * c
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        # the stable pair of roots; a = 0 (a ray along an asymptotic direction) leaves the one root -c/b
         sq = np.sqrt(disc)
         q = -0.5 * (b + np.copysign(sq, b))
-        t1 = q / a
-        t2 = c / q
-        lin = np.abs(a) <= 1e-14 * (np.abs(b) + np.abs(c) + 1e-300)
-        t1 = np.where(lin, -c / b, t1)
-        t2 = np.where(lin, np.nan, t2)
-    t1 = np.where(disc >= 0, t1, np.nan)
-    t2 = np.where(disc >= 0, t2, np.nan)
+        t1 = np.where(disc >= 0, q / a, np.nan)
+        t2 = np.where(disc >= 0, c / q, np.nan)
+        tmin = t_min * dn / L
     lo = np.fmin(t1, t2)
     hi = np.fmax(t1, t2)
     out = np.full(np.broadcast_shapes(a.shape), np.nan)
     for t in (hi, lo):  # lo last so that it wins when both qualify
-        z = o[..., 2] + t * d[..., 2]
-        ok = (t > t_min) & (z >= mirror.z_min) & (z <= mirror.z_max)
+        with np.errstate(invalid="ignore", over="ignore"):
+            z = o[..., 2] + t * u[..., 2]
+        ok = np.isfinite(t) & (t > tmin) & (z >= zlo - rim) & (z <= zhi + rim)
         out = np.where(ok, t, out)
-    return out
+    with np.errstate(over="ignore"):
+        return out * (L / dn)
 
 
 def backproject(cam: CatadioptricCamera, uv) -> Rays:
     uv = as_float_array(uv, "uv", 2)
     d_cam = cam.pinhole.pixel_rays(uv)
-    d = rowdot(d_cam, cam.R_cam_from_mirror)  # R^T d_cam, row-vector form
+    d = unit(rowdot(d_cam, cam.R_cam_from_mirror))  # R^T d_cam, row-vector form
     o = np.broadcast_to(cam.center, d.shape)
-    t = intersect_mirror(cam.mirror, o, d)
+    t = intersect_mirror(cam.mirror, o, d, rim=RIM)
     valid = np.isfinite(t)
     r = o + t[..., None] * d
     n = cam.mirror.normal(r)
-    out = reflect(d, n)
-    out /= np.linalg.norm(out, axis=-1, keepdims=True)
+    out = unit(reflect(d, n))
     r = np.where(valid[..., None], r, np.nan)
     out = np.where(valid[..., None], out, np.nan)
     with np.errstate(invalid="ignore"):
@@ -106,25 +119,31 @@ def backproject(cam: CatadioptricCamera, uv) -> Rays:
 def visibility(cam: CatadioptricCamera, r: np.ndarray, target: np.ndarray, w: np.ndarray) -> np.ndarray:
     """For reflection points ``r (..., 3)`` of homogeneous targets ``(target, w)``: True where the
     camera ray reaches ``r`` without meeting the patch first, the reflected ray reaches the
-    target without meeting the patch again, and ``r`` is in front of the camera."""
-    m = cam.mirror
-    c = cam.center
+    target without meeting the patch again, and ``r`` is in front of the camera.
+
+    Lengths in units of the mirror's scale; the reflected ray along a unit vector, so that
+    targets of any magnitude (up to the float range) are tested alike."""
+    L, A, B, C, zlo, zhi = _normalised(cam.mirror)
+    c = cam.center / L
+    rn = r / L
     eps = 1e-9
     # camera ray c + t (r - c): t = 1 is a root; the other is the product of roots c/a
-    d = r - c
-    a, b, cc = _quadratic_coeffs(m, np.broadcast_to(c, r.shape), d)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    d = rn - c
+    a, b, cc = _quadratic_coeffs(A, B, C, np.broadcast_to(c, rn.shape), d)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         t_other = cc / a
-    zo = c[2] + t_other * d[..., 2]
-    blocked_in = (t_other > eps) & (t_other < 1 - eps) & (zo >= m.z_min) & (zo <= m.z_max)
-    # reflected ray r + t v, v = target - w r: t = 0 is a root; the other is -b/a
-    v = target - w[..., None] * r
-    a2, b2, _ = _quadratic_coeffs(m, r, v)
-    with np.errstate(divide="ignore", invalid="ignore"):
+        zo = c[2] + t_other * d[..., 2]
+    blocked_in = (t_other > eps) & (t_other < 1 - eps) & (zo >= zlo) & (zo <= zhi)
+    # reflected ray r + t v, v the unit vector toward the target: t = 0 is a root; the other is -b/a;
+    # the target is at t = |target - r| (w = 1) or at infinity (w = 0)
+    toward = target - w[..., None] * r
+    v = unit(toward)
+    a2, b2, _ = _quadratic_coeffs(A, B, C, rn, v)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         t2 = -b2 / a2
-    zo2 = r[..., 2] + t2 * v[..., 2]
-    t_end = np.where(w > 0.5, 1.0 - eps, np.inf)
-    blocked_out = (t2 > eps) & (t2 < t_end) & (zo2 >= m.z_min) & (zo2 <= m.z_max)
+        t_end = np.where(w > 0.5, norm(toward) / L * (1 - eps), np.inf)
+        zo2 = rn[..., 2] + t2 * v[..., 2]
+    blocked_out = (t2 > eps) & (t2 < t_end) & (zo2 >= zlo) & (zo2 <= zhi)
     front = cam.to_camera(r)[..., 2] > 0
     return ~blocked_in & ~blocked_out & front
 
@@ -166,7 +185,7 @@ def solve_targets(cam: CatadioptricCamera, targets: np.ndarray, w: float, backwa
     owner = np.concatenate([p[0] + i * CHUNK for i, p in enumerate(parts)])
     r = np.concatenate([p[1] for p in parts])
     fwd = np.concatenate([p[2] for p in parts])
-    inside = cam.mirror.in_patch(r)  # the exact patch, whatever the solver's rounding
+    inside = cam.mirror.in_patch(r, RIM)  # the patch, its ends kept to rounding
     owner, r, fwd = owner[inside], r[inside], fwd[inside]
     tg = targets[owner]
     if w == 0:  # a -s point's reflected ray leaves along -s: test that ray for obstruction

@@ -43,6 +43,19 @@ class AxialSolver(ReflectionSolver):
         Gb = reflection_G(self.A, self.B, self.C, 0.0, self.c3, self.zt, np.eye(4)[1:])
         self._gmap = np.stack([bv.y_coefficient(Gb, k, 5) for k in (2, 1, 0)], axis=1).reshape(3, 15)
 
+    def normal_feet(self):
+        """The vertices on the axis, and the circle at ``(1 - A) z = c3 + B/2`` where the camera
+        ray meets the mirror along its normal (its points in the plane x = 0, where the targets are)."""
+        A, B, C, c3 = self.A, self.B, self.C, self.c3
+        zs = np.roots([A, B, -C]) if (A or B) else np.zeros(0)
+        out = [[0.0, 0.0, z.real] for z in np.atleast_1d(zs) if abs(z.imag) <= 1e-12 * (1 + abs(z))]
+        if A != 1:
+            zf = (c3 + B / 2) / (1 - A)
+            r2 = C - A * zf * zf - B * zf
+            if r2 > 0:
+                out += [[0.0, np.sqrt(r2), zf], [0.0, -np.sqrt(r2), zf]]
+        return np.array(out).reshape(-1, 3)
+
     def _deflate(self, R):
         """Remove factors known to be spurious for this mirror (none in general)."""
         return R[..., : self.degree + 1] if np.all(R[..., self.degree + 1:] == 0) else R
@@ -71,7 +84,7 @@ class AxialSolver(ReflectionSolver):
         # keep the branch that fits best, and any within a factor of it (see general.py)
         rel = np.where((rho2 >= -1e-9)[:, None], np.abs(Gv) / Gs, np.inf)
         best = rel.min(axis=1, keepdims=True)
-        keep = (rel <= np.maximum(_SCREEN, 10.0 * best)) & (best < 0.5)
+        keep = rel <= np.maximum(_SCREEN, 10.0 * best)
         kk = np.nonzero(keep)
         r0 = np.stack([np.zeros(len(kk[0])), ys[kk], z[kk[0]]], axis=-1)
         return ridx[kk[0]], r0

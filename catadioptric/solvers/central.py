@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._numeric import unit
 from .reflection import ACCEPT, ReflectionSolver, dedupe, reflect
 
 
@@ -31,8 +32,8 @@ class CentralSolver(ReflectionSolver):
         N = len(targets)
         w = np.broadcast_to(np.asarray(w, float), (N,))
         fin = w > 0
-        u = np.where(fin[:, None], targets / self.L - self.V, targets)
-        u = u / np.linalg.norm(u, axis=1, keepdims=True)
+        # from the viewpoint toward the target (lengths in the caller's unit: no division that overflows)
+        u = unit(np.where(fin[:, None], targets - self.V * self.L, targets))
         A, B, C, V = self.A, self.B, self.C, self.V
         a = u[:, 0] ** 2 + u[:, 1] ** 2 + A * u[:, 2] ** 2
         b = 2 * (V[0] * u[:, 0] + V[1] * u[:, 1] + A * V[2] * u[:, 2]) + B * u[:, 2]
@@ -50,8 +51,7 @@ class CentralSolver(ReflectionSolver):
         nrm = np.stack([r[:, 0], r[:, 1], A * r[:, 2] + 0.5 * B], axis=-1)
         d = reflect(r - self.c, nrm)
         d /= np.linalg.norm(d, axis=-1, keepdims=True)
-        tgt = np.where(fin[owner, None], targets[owner] / self.L - r, targets[owner])
-        tgt /= np.linalg.norm(tgt, axis=-1, keepdims=True)
+        tgt = unit(np.where(fin[owner, None], targets[owner] - r * self.L, targets[owner]))
         fwd = np.sum(d * tgt, axis=-1) > 0
         good = (np.linalg.norm(np.cross(d, tgt), axis=-1) <= ACCEPT) & (fwd | backward)
-        return dedupe(owner[good], r[good] * self.L, fwd[good])
+        return dedupe(owner[good], r[good] * self.L, fwd[good], self.L)

@@ -70,6 +70,31 @@ class GeneralSolver(ReflectionSolver):
         E, F1, F0 = coplanarity(*a, np.array([[1.0, 0, 0, 0]]))
         self._f1, self._f0 = F1[0], F0[0]  # F = p1 (f1 y + f0)
 
+    def normal_feet(self):
+        """Feet in the plane x = 0 of the camera and the axis: ``(0, y, z)`` on the mirror with
+        ``(0, y - c2, z - c3)`` along the normal ``(0, y, A z + B/2)``, so
+        ``y ((1 - A) z - c3 - B/2) + c2 (A z + B/2) = 0``; with ``y^2 = C - A z^2 - B z``:
+        ``c2^2 (A z + B/2)^2 = (C - A z^2 - B z) ((1 - A) z - c3 - B/2)^2``, a quartic in z."""
+        P = np.polynomial.Polynomial
+        A, B, C, c2, c3 = self.A, self.B, self.C, self.c2, self.c3
+        n3 = P([B / 2, A])
+        den = P([-c3 - B / 2, 1 - A])
+        rho2 = P([C, -B, -A])
+        q = c2 * c2 * n3 * n3 - rho2 * den * den
+        if not np.any(q.coef):
+            return np.zeros((0, 3))
+        out = []
+        for z in q.roots():
+            if abs(z.imag) > 1e-7 * (1 + abs(z.real)):
+                continue
+            z = z.real
+            if abs(den(z)) <= 1e-12:
+                continue
+            y = -c2 * n3(z) / den(z)
+            if abs(y * y - rho2(z)) <= 1e-7 * (1 + y * y):
+                out.append([0.0, y, z])
+        return np.array(out).reshape(-1, 3)
+
     def _frame(self, h):
         N = len(h)
         cs, sn = np.full(N, self._cs), np.full(N, self._sn)
@@ -109,11 +134,18 @@ class GeneralSolver(ReflectionSolver):
         # be strict: x = sqrt(rho^2 - y^2) is ill-conditioned where x is small (targets near the
         # plane of the camera and the axis) and z is a poor coordinate near a vertex, so a
         # genuine root can carry a visible residual. Keep every candidate within a factor of the
-        # root's best; the polish and the acceptance test decide.
-        ok = (rho2[:, None] - ys**2 >= -1e-7) & np.isfinite(ys)
+        # root's best (rel <= 1 always: no absolute threshold), every candidate with a small x
+        # (its residual says little), and every candidate where E vanishes (the coplanarity
+        # holds for any x there: one z can hold a solution in the plane x = 0 and a pair off it);
+        # the polish and the acceptance test decide.
+        # x^2 = rho^2 - y^2 may come out slightly negative for x ~ 0 (a root of the octic known to
+        # about the square root of the rounding where two solutions share one z)
+        ok = (rho2[:, None] - ys**2 >= -1e-4 * np.maximum(np.abs(rho2)[:, None], ys**2) - 1e-9) & np.isfinite(ys)
         rel = np.where(ok, res / sc, np.inf)
         best = rel.min(axis=1, keepdims=True)
-        keep = ok & (rel <= np.maximum(_SCREEN, 10.0 * best)) & (best < 0.5)
+        small_x = np.abs(xs) <= 1e-3 * np.sqrt(np.maximum(rho2, 0.0))[:, None]
+        no_e = np.abs(Ev) <= 1e-6 * polyval(np.abs(Ec), at)[:, None]
+        keep = ok & ((rel <= np.maximum(_SCREEN, 10.0 * best)) | small_x | no_e)
         kk = np.nonzero(keep)
         owners = [owner[kk[0]]]
         pts = [np.stack([xs[kk], ys[kk], z[kk[0]]], axis=-1)]

@@ -14,11 +14,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._numeric import unit
+
 __all__ = ["ReflectionSolutions", "ReflectionSolver", "reflect", "monomials", "exponents"]
 
 # after polishing, a reflection point must satisfy the law to this (sine of the angle)
 ACCEPT = 1e-9
 DEDUP = 1e-8
+# targets within this sine of a normal line (camera - foot) also start from the foot
+_NEAR_NORMAL = 1e-2
 
 
 @dataclass
@@ -94,10 +98,6 @@ def newton_polish(r, A, B, C, c, h, sigma, iters=6):
     that still move (quadratic convergence: one or two steps from a polynomial root).
     """
     r = r.copy()
-    fin_all = h[:, 3] > 0
-    with np.errstate(invalid="ignore", divide="ignore"):
-        p = np.where(fin_all[:, None], h[:, :3] / h[:, 3:], h[:, :3])
-        s_all = p / np.linalg.norm(p, axis=-1, keepdims=True)
     mu_all = np.zeros(len(r))
     Hom = np.diag([2.0, 2.0, 2.0 * A])
     eye = np.eye(3)
@@ -105,14 +105,17 @@ def newton_polish(r, A, B, C, c, h, sigma, iters=6):
     for it in range(iters):
         if len(act) == 0:
             break
-        ra, pa, fin, s_hat, sg = r[act], p[act], fin_all[act], s_all[act], sigma[act, None]
+        ra, ha, sg = r[act], h[act], sigma[act, None]
         rc = ra - c
         lc = np.linalg.norm(rc, axis=-1, keepdims=True)
         u = rc / lc
-        rp = ra - pa
-        lp = np.linalg.norm(rp, axis=-1, keepdims=True)
-        lp = np.where(lp > 0, lp, 1.0)
-        v = np.where(fin[:, None], rp / lp, -s_hat)
+        # toward the target: p - r = (h3 - w r) / w, or s = h3 at infinity; |r - p| = |h3 - w r| / w without
+        # forming p, so that targets of any magnitude (w down to the smallest float) are alike
+        tw = ha[:, :3] - ha[:, 3:] * ra
+        tn = np.linalg.norm(tw, axis=-1, keepdims=True)
+        tn = np.where(tn > 0, tn, 1.0)
+        v = -tw / tn
+        inv_lp = ha[:, 3:] / tn  # 1 / |r - p|, 0 at infinity
         grad = u + sg * v
         gO = np.stack([2 * ra[:, 0], 2 * ra[:, 1], 2 * A * ra[:, 2] + B], axis=-1)
         Om = ra[:, 0] ** 2 + ra[:, 1] ** 2 + A * ra[:, 2] ** 2 + B * ra[:, 2] - C
@@ -121,8 +124,7 @@ def newton_polish(r, A, B, C, c, h, sigma, iters=6):
         mu = mu_all[act]
         # Schur complement of the bordered Hessian [[M, g], [g^T, 0]], M = Hess f + mu Hess Omega
         M = (eye - u[:, :, None] * u[:, None, :]) / lc[:, :, None]
-        M = M + np.where(fin[:, None, None], (eye - v[:, :, None] * v[:, None, :]) / lp[:, :, None], 0.0) \
-            * sg[:, :, None]
+        M = M + (eye - v[:, :, None] * v[:, None, :]) * (inv_lp * sg)[:, :, None]
         M = M + mu[:, None, None] * Hom
         f1 = grad + mu[:, None] * gO
         adj = adjugate3(M)
@@ -194,6 +196,43 @@ class ReflectionSolver:
     def max_solutions(self) -> int:
         return self.degree
 
+    # -- near normal incidence
+    def normal_feet(self) -> np.ndarray:
+        """Points ``(F, 3)`` of the patch (solver frame) where the camera ray meets the mirror
+        along its normal: the camera sees its own reflection there. None by default."""
+        return np.zeros((0, 3))
+
+    def _feet_candidates(self, h):
+        """The normal feet as candidates for the targets near their normal lines.
+
+        A target on the line through the camera and a foot reflects at the foot; near it, the
+        eliminated polynomial has a cluster of roots there (the plane of reflection is
+        undetermined on the line itself) whose candidates can be too poor to polish. The foot
+        itself is a good start: the reflection point moves smoothly with the target there."""
+        feet = self._feet
+        if not len(feet):
+            return np.zeros(0, dtype=np.intp), np.zeros((0, 3))
+        owners, pts = [], []
+        for f in feet:
+            back = self._c_frame - f
+            back = back / np.linalg.norm(back)
+            tg = h[:, :3] - h[:, 3:] * f  # toward the target, any length
+            tn = np.linalg.norm(tg, axis=1)
+            near = np.nonzero((np.linalg.norm(np.cross(tg, back), axis=1) <= _NEAR_NORMAL * tn) & (tn > 0))[0]
+            owners.append(near)
+            pts.append(np.broadcast_to(f, (len(near), 3)))
+        return np.concatenate(owners), np.concatenate(pts)
+
+    @property
+    def _feet(self) -> np.ndarray:
+        if not hasattr(self, "_feet_cache"):
+            f = np.asarray(self.normal_feet(), float).reshape(-1, 3)
+            nrm = np.stack([f[:, 0], f[:, 1], self.A * f[:, 2] + 0.5 * self.B], axis=-1)
+            ok = ((f[:, 2] >= self.zlo - 1e-12) & (f[:, 2] <= self.zhi + 1e-12)
+                  & (np.linalg.norm(nrm, axis=1) > 1e-9) & (np.linalg.norm(f - self._c_frame, axis=1) > 1e-9))
+            self._feet_cache = f[ok]
+        return self._feet_cache
+
     # -- to implement
     def _frame(self, h):  # -> (h in the solver frame, cs, sn) per target
         raise NotImplementedError
@@ -213,14 +252,15 @@ class ReflectionSolver:
         targets = np.asarray(targets, dtype=float)
         N = len(targets)
         w = np.broadcast_to(np.asarray(w, float), (N,))
-        h = np.concatenate([np.where(w[:, None] > 0, targets / self.L, targets), (w > 0)[:, None] * 1.0], axis=1)
-        nrm = np.linalg.norm(h, axis=1, keepdims=True)
-        h = h / np.where(nrm > 0, nrm, 1.0)
+        # (p / L, 1) ~ (p, L): a unit homogeneous 4-vector without dividing, so that no magnitude overflows
+        h = unit(np.concatenate([targets, (w > 0)[:, None] * self.L], axis=1))
         hf, cs, sn = self._frame(h)
         owner, r0 = self._candidates(hf)
+        fo, fr = self._feet_candidates(hf)
+        owner, r0 = np.concatenate([owner, fo]), np.concatenate([r0, fr])
         owner, r, fwd = self._finish(hf, owner, r0, backward)
         r = rot_z(cs[owner], -sn[owner], r) * self.L
-        return dedupe(owner, r, fwd)
+        return dedupe(owner, r, fwd, self.L)
 
     def _finish(self, h, owner, r0, backward):
         """Forward/backward assignment, polish and acceptance of candidates (solver frame)."""
@@ -229,19 +269,17 @@ class ReflectionSolver:
         nrm0 = np.stack([r0[:, 0], r0[:, 1], A * r0[:, 2] + 0.5 * B], axis=-1)
         d0 = reflect(r0 - c, nrm0)
         ho = h[owner]
-        fin = ho[:, 3:] > 0
-        with np.errstate(invalid="ignore", divide="ignore"):
-            pt = np.where(fin, ho[:, :3] / np.where(fin, ho[:, 3:], 1.0), ho[:, :3])
-        tg0 = np.where(fin, pt - r0, pt)
+        # toward the target: (h3 - w r) is (p - r) w for a point, s for a direction
+        tg0 = ho[:, :3] - ho[:, 3:] * r0
         sigma = np.where(np.sum(d0 * tg0, axis=-1) >= 0, 1.0, -1.0)
         if not backward:
             keep = sigma > 0
-            owner, r0, sigma, ho, fin, pt = owner[keep], r0[keep], sigma[keep], ho[keep], fin[keep], pt[keep]
+            owner, r0, sigma, ho = owner[keep], r0[keep], sigma[keep], ho[keep]
         r = newton_polish(r0, A, B, C, c, ho, sigma)
         nrm = np.stack([r[:, 0], r[:, 1], A * r[:, 2] + 0.5 * B], axis=-1)
         d = reflect(r - c, nrm)
         d /= np.linalg.norm(d, axis=-1, keepdims=True)
-        tgt = np.where(fin, pt - r, pt)
+        tgt = ho[:, :3] - ho[:, 3:] * r
         tn = np.linalg.norm(tgt, axis=-1, keepdims=True)
         tgt = tgt / np.where(tn > 0, tn, 1.0)
         sine = np.linalg.norm(np.cross(d, tgt), axis=-1)
@@ -253,20 +291,21 @@ class ReflectionSolver:
         return owner[ok], r[ok], fwd[ok]
 
 
-def dedupe(owner, r, fwd):
-    """Sort flat solutions by (owner, z) and drop repeats of one solution of one target."""
+def dedupe(owner, r, fwd, length):
+    """Sort flat solutions by (owner, z) and drop repeats of one solution of one target (points
+    closer than ``DEDUP`` times ``length``, the mirror's scale in the unit of ``r``)."""
     if len(owner) == 0:
         return owner, r, fwd
     order = np.lexsort((r[:, 2], owner))
     owner, r, fwd = owner[order], r[order], fwd[order]
-    scale = np.maximum(np.max(np.abs(r), axis=1), 1e-300)
+    scale = float(length)
     dup = np.zeros(len(owner), dtype=bool)
     k = 1
     while True:  # compare with the k-th previous entry of the same owner
         same = owner[k:] == owner[:-k]
         if not np.any(same):
             break
-        close = np.linalg.norm(r[k:] - r[:-k], axis=1) <= DEDUP * scale[k:]
+        close = np.linalg.norm(r[k:] - r[:-k], axis=1) <= DEDUP * scale
         dup[k:] |= same & close & (fwd[k:] == fwd[:-k])
         k += 1
     keep = ~dup
@@ -284,8 +323,7 @@ def rank_within(owner, key):
 
 
 def gather(N, owner, r, fwd, K):
-    """Scatter flat solutions into (N, K) slots, dropping duplicates of one target."""
-    owner, r, fwd = dedupe(owner, r, fwd)
+    """Scatter flat solutions (without duplicates: ``solve_flat``'s) into (N, K) slots."""
     out = np.full((N, K, 3), np.nan)
     fo = np.zeros((N, K), dtype=bool)
     found = np.zeros((N, K), dtype=bool)
