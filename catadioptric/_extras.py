@@ -16,6 +16,7 @@ EXTRAS = {
     "shapely": ("shapely", "scenes"),
     "mapbox_earcut": ("mapbox-earcut", "scenes"),
     "tqdm": ("tqdm", "render"),
+    "numba": ("numba", "render"),
     "mitsuba": ("mitsuba", "mitsuba"),
     "drjit": ("mitsuba", "mitsuba"),
     "dask": ("dask[distributed]", "dask"),

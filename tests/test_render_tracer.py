@@ -160,3 +160,21 @@ def test_bvh_errors():
                 np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0, np.int64))
     with pytest.raises(cd.CatadioptricError, match=r"scene.objects\[0\].label: expected a positive label"):
         scene_bvh(bad)
+
+
+def test_exact_ties_go_to_the_first_triangle_whatever_the_batch():
+    """Two copies of one triangle with different labels: every ray hits both at exactly the same
+    distance; the first of the input triangles wins, traced alone or among other rays."""
+    tri = np.array([[0.0, 0.0, 5.0], [4.0, 0.0, 5.0], [0.0, 4.0, 5.0]])
+    ev, ef = box_mesh([10.0, 10.0, 0.0], [11.0, 11.0, 1.0])
+    for order, want in (((1, 2), 1), ((2, 1), 2)):
+        verts = np.concatenate([tri, tri, ev])
+        faces = np.concatenate([[[0, 1, 2], [3, 4, 5]], ef + 6])
+        labels = np.r_[order, np.full(len(ef), 7)]
+        bvh = TriangleBVH(verts, faces, labels)
+        rng = np.random.default_rng(3)
+        o = np.c_[rng.uniform(0.2, 1.5, (500, 2)), np.zeros(500)]
+        d = np.tile([0.0, 0.0, 1.0], (500, 1))
+        alone = [bvh.labels_of(bvh.intersect(o[i:i + 1], d[i:i + 1]))[0] for i in range(0, 500, 50)]
+        batch = bvh.labels_of(bvh.intersect(o, d))
+        assert np.all(batch == want) and alone == [want] * 10

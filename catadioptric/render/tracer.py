@@ -2,18 +2,21 @@
 
 Pixel-centre rays are reflected on the exact quadric by :func:`catadioptric.projection.backproject`
 (float64) and intersected with the scene's triangles in float64 by a bounding-volume
-hierarchy traversed breadth-first over whole batches of rays with numpy:
+hierarchy:
 
-* build: triangles longer than 1/128 of the scene's extent are first bisected along their
-  longest edge (the surface is unchanged; a ground plane of two triangles would otherwise
-  give boxes every ray enters), then a balanced median-split tree in complete-binary
+* build (numpy): triangles longer than 1/128 of the scene's extent are first bisected along
+  their longest edge (the surface is unchanged; a ground plane of two triangles would
+  otherwise give boxes every ray enters), then a balanced median-split tree in complete-binary
   layout (node ``i`` of level ``l`` covers the triangles ``[floor(i N / 2^l),
   floor((i + 1) N / 2^l))`` of a permutation that is re-sorted, level by level, along each
   node's longest centroid extent);
-* traversal: (ray, node) pairs go down ``SUBTREE`` levels together (one slab test per pair
-  and level), then each ray visits its subtrees nearest box first, in rounds, and skips
-  the boxes farther than its best hit so far, down to the leaves;
-* triangles: Moeller-Trumbore in float64.
+* traversal (compiled with numba, :mod:`catadioptric.render.tracer_kernels`): each ray goes
+  depth first, nearer child box first, and skips the boxes farther than its best hit so far;
+* triangles: Moeller-Trumbore in float64 (``p = d x e2``, ``det = e1 . p``, ``s = o - v0``,
+  ``q = s x e1``, ``u = (s . p) / det``, ``v = (d . q) / det``, ``t = (e2 . q) / det``, each
+  product summed x, y, z in that order; barycentric slack 1e-12). The nearest hit wins;
+  among hits at exactly the same distance, the lowest triangle index of the hierarchy's
+  order (so the answer does not depend on the order boxes are visited in).
 
 Labels (docs/formats.md, "Datasets"): ``0`` nothing hit (sky), ``-1`` the pixel does not
 see the mirror, ``-2`` the reflected ray meets the mirror again; otherwise the label of
@@ -27,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._checks import CatadioptricError, as_float_array
+from .._extras import require
 
 __all__ = ["TriangleBVH", "scene_bvh", "trace_labels", "trace_rays", "scene_digest",
            "LABEL_SKY", "LABEL_NO_MIRROR", "LABEL_MIRROR_AGAIN"]
@@ -36,10 +40,7 @@ LABEL_NO_MIRROR = -1
 LABEL_MIRROR_AGAIN = -2
 
 LEAF = 4            # triangles per leaf (at most)
-RAY_CHUNK = 1 << 15  # rays traversed together (bounds the memory of the pair lists)
-SUBTREE = 4          # levels descended breadth-first before the pairs are visited nearest box first
 SPLIT_FRACTION = 128  # triangles longer than 1/128 of the scene's extent are split for the hierarchy
-_BARY_TOL = 1e-12    # barycentric slack: a ray through a shared edge hits one of its triangles
 
 
 @dataclass
@@ -48,6 +49,14 @@ class Hits:
 
     t: np.ndarray
     triangle: np.ndarray
+
+
+def _kernels():
+    """The compiled traversal (numba, the ``render`` extra; compiled once per machine and cached)."""
+    require("numba", "the float64 label tracer")
+    from . import tracer_kernels
+
+    return tracer_kernels
 
 
 class TriangleBVH:
@@ -95,24 +104,24 @@ class TriangleBVH:
         self.depth = depth
         self.perm = perm
         t = tri[perm]
-        self.v0 = t[:, 0].copy()
-        self.e1 = t[:, 1] - t[:, 0]
-        self.e2 = t[:, 2] - t[:, 0]
-        self.tri_labels = self.labels[perm]
+        self.v0 = np.ascontiguousarray(t[:, 0])
+        self.e1 = np.ascontiguousarray(t[:, 1] - t[:, 0])
+        self.e2 = np.ascontiguousarray(t[:, 2] - t[:, 0])
+        self.tri_labels = np.ascontiguousarray(self.labels[perm])
         nleaf = 1 << depth
         self.leaf_bounds = (np.arange(nleaf + 1) * self.n) >> depth
         lo = np.minimum.reduceat(t.min(axis=1), self.leaf_bounds[:-1], axis=0)
         hi = np.maximum.reduceat(t.max(axis=1), self.leaf_bounds[:-1], axis=0)
         pad = 1e-9 * (np.abs(lo) + np.abs(hi) + (hi - lo)) + 1e-12
         lo, hi = lo - pad, hi + pad
-        # boxes per level as (6, nodes) rows lo_x, lo_y, lo_z, hi_x, hi_y, hi_z (one gather per level)
-        self.boxes = [None] * (depth + 1)
-        self.boxes[depth] = np.concatenate([lo.T, hi.T])
-        for level in range(depth - 1, -1, -1):
+        # boxes of the complete tree in heap order (node k's children 2k + 1, 2k + 2): rows
+        # lo_x, lo_y, lo_z, hi_x, hi_y, hi_z, the leaves last
+        levels = [np.concatenate([lo, hi], axis=1)]
+        for _ in range(depth):
             lo = np.minimum(lo[0::2], lo[1::2])
             hi = np.maximum(hi[0::2], hi[1::2])
-            self.boxes[level] = np.concatenate([lo.T, hi.T])
-        self.leaf_size = int(np.max(np.diff(self.leaf_bounds)))
+            levels.append(np.concatenate([lo, hi], axis=1))
+        self.nodes = np.ascontiguousarray(np.concatenate(levels[::-1]))
 
     # ------------------------------------------------------------------ queries
     def intersect(self, origins, directions, t_min=0.0, t_max=None, exclude_labels=None) -> Hits:
@@ -121,121 +130,28 @@ class TriangleBVH:
         ``t_min``, ``t_max``: numbers or one per ray (default: 0 and no limit; a narrow window
         prunes the traversal).
         ``exclude_labels (N,)``: triangles of that label are ignored for that ray (-1: none)."""
-        o = as_float_array(origins, "origins", 3).reshape(-1, 3)
-        d = as_float_array(directions, "directions", 3).reshape(-1, 3)
+        # writeable C-contiguous copies: one compiled signature serves every call
+        o = np.array(as_float_array(origins, "origins", 3).reshape(-1, 3), order="C")
+        d = np.array(as_float_array(directions, "directions", 3).reshape(-1, 3), order="C")
         if o.shape != d.shape:
             raise CatadioptricError(f"origins, directions: expected the same shape, got {o.shape} and {d.shape}")
-        t = np.full(len(o), np.inf)
-        tri = np.full(len(o), -1, dtype=np.int64)
-        ex = None if exclude_labels is None else np.asarray(exclude_labels, dtype=np.int64).reshape(-1)
-        if ex is not None and ex.shape != (len(o),):
-            raise CatadioptricError(f"exclude_labels: expected shape ({len(o)},), got {ex.shape}")
-        tmax = np.broadcast_to(np.inf if t_max is None else np.asarray(t_max, dtype=np.float64), (len(o),))
-        tmin = np.broadcast_to(np.asarray(t_min, dtype=np.float64), (len(o),))
-        if self.n == 0:
-            return Hits(t, tri)
-        for s in range(0, len(o), RAY_CHUNK):
-            tt, ii = self._intersect_chunk(o[s:s + RAY_CHUNK], d[s:s + RAY_CHUNK], tmin[s:s + RAY_CHUNK],
-                                           tmax[s:s + RAY_CHUNK],
-                                           None if ex is None else ex[s:s + RAY_CHUNK])
-            t[s:s + RAY_CHUNK] = tt
-            tri[s:s + RAY_CHUNK] = ii
-        return Hits(t, tri)
-
-    def _slab(self, level, nodes, o, inv, tmin, tmax):
-        """Entry distance of rays ``o, inv`` (3, P) into boxes ``nodes`` of ``level`` and whether they enter."""
-        bx = self.boxes[level][:, nodes]
-        near = np.array(tmin, dtype=np.float64)
-        far = np.array(tmax, dtype=np.float64)
-        with np.errstate(invalid="ignore"):
-            for k in range(3):
-                t0 = (bx[k] - o[k]) * inv[k]
-                t1 = (bx[k + 3] - o[k]) * inv[k]
-                # NaN (0 * inf) where the origin lies on a slab plane of a parallel ray: fmax/fmin ignore it
-                np.fmax(near, np.minimum(t0, t1), out=near)
-                np.fmin(far, np.maximum(t0, t1), out=far)
-        return near, near <= far
-
-    def _descend(self, rays, nodes, level, steps, oT, inv, t_min, best_t):
-        """Breadth-first from ``level`` down ``steps`` levels: the (ray, node) pairs whose boxes the
-        rays enter before their current best hit, with the entry distances."""
-        near, ok = self._slab(level, nodes, oT[:, rays], inv[:, rays], t_min[rays], best_t[rays])
-        rays, nodes, near = rays[ok], nodes[ok], near[ok]
-        if steps:
-            return self._descend_children(rays, nodes, level, steps, oT, inv, t_min, best_t)
-        return rays, nodes, near
-
-    def _ordered(self, rays, nodes, near, level, ctx):
-        """Visit the subtrees (ray, node at ``level``) nearest box first, in rounds of growing width:
-        a ray stops descending into boxes farther than its best hit so far."""
-        o, d, oT, inv, t_min, best_t, best_i, ex = ctx
-        order = np.lexsort((near, rays))
-        rays, nodes, near = rays[order], nodes[order], near[order]
-        rank = np.arange(len(rays)) - np.searchsorted(rays, rays, side="left")
-        max_rank = int(rank.max(initial=-1))
-        lo_rank, width = 0, 1
-        while lo_rank <= max_rank:
-            sel = (rank >= lo_rank) & (rank < lo_rank + width)
-            r, nd, nr = rays[sel], nodes[sel], near[sel]
-            keep = nr <= best_t[r]
-            r, nd = r[keep], nd[keep]
-            if len(r):
-                if level == self.depth:
-                    self._test_leaves(r, nd, o, d, t_min, best_t, best_i, ex)
-                else:
-                    steps = min(SUBTREE, self.depth - level)
-                    r2, n2, near2 = self._descend(r, nd, level, steps, oT, inv, t_min, best_t)
-                    if len(r2):
-                        self._ordered(r2, n2, near2, level + steps, ctx)
-            lo_rank += width
-            width *= 2
-
-    def _descend_children(self, rays, nodes, level, steps, oT, inv, t_min, best_t):
-        near = None
-        for lv in range(level + 1, level + steps + 1):
-            rays = np.repeat(rays, 2)
-            nodes = np.repeat(nodes << 1, 2)
-            nodes[1::2] += 1
-            near, ok = self._slab(lv, nodes, oT[:, rays], inv[:, rays], t_min[rays], best_t[rays])
-            rays, nodes, near = rays[ok], nodes[ok], near[ok]
-        return rays, nodes, near
-
-    def _intersect_chunk(self, o, d, t_min, tmax, ex):
         n = len(o)
-        with np.errstate(divide="ignore"):
-            inv = np.ascontiguousarray((1.0 / d).T)
-        oT = np.ascontiguousarray(o.T)
-        best_t = np.array(tmax, dtype=np.float64)  # hits must come before t_max
-        best_i = np.full(n, -1, dtype=np.int64)
-        top = min(SUBTREE, self.depth)
-        rays, nodes, near = self._descend(np.arange(n), np.zeros(n, dtype=np.int64), 0, top, oT, inv, t_min,
-                                          best_t)
-        if len(rays):
-            self._ordered(rays, nodes, near, top, (o, d, oT, inv, t_min, best_t, best_i, ex))
-        return np.where(best_i >= 0, best_t, np.inf), best_i
-
-    def _test_leaves(self, r, nd, o, d, t_min, best_t, best_i, ex=None):
-        start = self.leaf_bounds[nd]
-        count = self.leaf_bounds[nd + 1] - start
-        k = np.arange(self.leaf_size)
-        m = k[None, :] < count[:, None]
-        rr = np.broadcast_to(r[:, None], m.shape)[m]
-        ti = (start[:, None] + k[None, :])[m]
-        t = _moller_trumbore(o[rr], d[rr], self.v0[ti], self.e1[ti], self.e2[ti], t_min[rr])
-        hit = t < best_t[rr]
-        if ex is not None:
-            hit &= self.tri_labels[ti] != ex[rr]
-        if not np.any(hit):
-            return
-        rr, ti, t = rr[hit], ti[hit], t[hit]
-        order = np.lexsort((ti, t, rr))  # nearest per ray; ties go to the lower triangle index
-        rr, ti, t = rr[order], ti[order], t[order]
-        head = np.ones(len(rr), bool)
-        head[1:] = rr[1:] != rr[:-1]
-        rr, ti, t = rr[head], ti[head], t[head]
-        better = t < best_t[rr]
-        best_t[rr[better]] = t[better]
-        best_i[rr[better]] = ti[better]
+        t = np.full(n, np.inf)
+        tri = np.full(n, -1, dtype=np.int64)
+        ex = None if exclude_labels is None else np.asarray(exclude_labels, dtype=np.int64).reshape(-1)
+        if ex is not None and ex.shape != (n,):
+            raise CatadioptricError(f"exclude_labels: expected shape ({n},), got {ex.shape}")
+        tmax = np.array(np.broadcast_to(np.inf if t_max is None else np.asarray(t_max, dtype=np.float64), (n,)),
+                        dtype=np.float64)
+        tmin = np.array(np.broadcast_to(np.asarray(t_min, dtype=np.float64), (n,)), dtype=np.float64)
+        if self.n == 0 or n == 0:
+            return Hits(t, tri)
+        kernels = _kernels()
+        use_ex = ex is not None
+        ex = np.array(ex, dtype=np.int64) if use_ex else np.zeros(1, dtype=np.int64)
+        kernels.intersect_rays(o, d, tmin, tmax, ex, use_ex, self.nodes, self.leaf_bounds, self.depth, self.v0,
+                               self.e1, self.e2, self.tri_labels, t, tri)
+        return Hits(t, tri)
 
     def labels_of(self, hits: Hits) -> np.ndarray:
         """Labels of the triangles hit (``LABEL_SKY`` where nothing)."""
@@ -270,25 +186,6 @@ def _split_long(tri, source, max_edge, max_rounds=12):
         tri = np.concatenate([tri[~long], first, second])
         source = np.concatenate([source[~long], source[long], source[long]])
     return tri, source
-
-
-def _moller_trumbore(o, d, v0, e1, e2, t_min):
-    """Ray-triangle distances (inf where no hit), float64, rows in parallel (component-wise for speed)."""
-    ox, oy, oz = o.T
-    dx, dy, dz = d.T
-    ax, ay, az = e1.T
-    bx, by, bz = e2.T
-    px, py, pz = dy * bz - dz * by, dz * bx - dx * bz, dx * by - dy * bx  # d x e2
-    det = ax * px + ay * py + az * pz
-    sx, sy, sz = ox - v0[:, 0], oy - v0[:, 1], oz - v0[:, 2]
-    qx, qy, qz = sy * az - sz * ay, sz * ax - sx * az, sx * ay - sy * ax  # s x e1
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / det
-        u = (sx * px + sy * py + sz * pz) * inv
-        v = (dx * qx + dy * qy + dz * qz) * inv
-        t = (bx * qx + by * qy + bz * qz) * inv
-        ok = (det != 0) & (u >= -_BARY_TOL) & (v >= -_BARY_TOL) & (u + v <= 1 + _BARY_TOL) & (t > t_min)
-    return np.where(ok, t, np.inf)
 
 
 # ---------------------------------------------------------------------- scenes
