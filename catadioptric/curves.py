@@ -237,8 +237,8 @@ def pixel_grid_rays(cam, step: int):
     ang = np.full(d.shape[:2], np.nan)
     with np.errstate(invalid="ignore"):
         for axis in (0, 1):
-            a = np.arccos(np.clip(np.sum(np.diff(d, axis=axis) * 1.0 * np.take(d, range(d.shape[axis] - 1), axis=axis),
-                                         axis=-1), -1, 1))
+            a = np.arccos(np.clip(np.sum(np.take(d, range(1, d.shape[axis]), axis=axis)
+                                         * np.take(d, range(d.shape[axis] - 1), axis=axis), axis=-1), -1, 1))
             pad = [(0, 0), (0, 0)]
             pad[axis] = (0, 1)
             ang = np.fmax(ang, np.pad(a, pad, constant_values=np.nan))

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._checks import CatadioptricError, as_count, as_float_array
-from ._numeric import norm, rowdot, unit
+from ._numeric import norm, unit
 from .cameras import CatadioptricCamera
 from .curves import Piece, sweep_options, trace
 from .projection import solve_targets
@@ -102,31 +102,61 @@ def _slots(owner):
 
 def _line_seeds(cam, q, s, step, max_per_line=256):
     """Angles phi = arctan(lambda / l) of the line points that grid pixels see: the reflected ray of
-    a grid pixel passing the line within the grid's angular resolution, in front of the mirror."""
+    a grid pixel passing the line within the grid's angular resolution, in front of the mirror
+    (at most ``max_per_line`` per line, evenly spread over the sorted lambdas)."""
     from .curves import pixel_grid_rays
 
     o, d, ang = pixel_grid_rays(cam, step)
-    ids, pars = [], []
-    for i in range(len(q)):
-        # closest approach of the ray o + t d and the line q + lam s (d, s unit)
-        w0 = o - q[i]
-        b = rowdot(d, s[i])
-        sw = rowdot(w0, s[i])
-        e = np.sum(d * w0, axis=1)
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            t = (b * sw - e) / (1.0 - b * b)
-            lam = sw + t * b
-            gap = norm(o + t[:, None] * d - (q[i] + lam[:, None] * s[i]))
-            hit = (t > 0) & (gap <= 1.5 * ang * t)
-        if np.any(hit):
-            lam_hit = lam[hit]
-            if len(lam_hit) > max_per_line:
-                lam_hit = np.sort(lam_hit)[np.linspace(0, len(lam_hit) - 1, max_per_line).astype(int)]
-            ids.append(np.full(len(lam_hit), i))
-            pars.append(np.arctan(lam_hit / cam.mirror.scale))
-    if not ids:
+    i, k = _seed_pairs(o, d, ang, q, s)
+    o, d, ang, q, s = o[k], d[k], ang[k], q[i], s[i]
+    # closest approach of the ray o + t d and the line q + lam s (d, s unit)
+    w0 = o - q
+    b = np.einsum("nk,nk->n", d, s)
+    sw = np.einsum("nk,nk->n", w0, s)
+    e = np.sum(d * w0, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        t = (b * sw - e) / (1.0 - b * b)
+        lam = sw + t * b
+        gap = norm(o + t[:, None] * d - (q + lam[:, None] * s))
+        hit = (t > 0) & (gap <= 1.5 * ang * t)
+    ids, lam = i[hit], lam[hit]
+    if len(ids) == 0:
         return None
-    return np.concatenate(ids), np.concatenate(pars)
+    order = np.lexsort((lam, ids))
+    ids, lam = ids[order], lam[order]
+    count = np.bincount(ids)
+    first = np.cumsum(count) - count
+    keep = np.ones(len(ids), bool)
+    for line in np.flatnonzero(count > max_per_line):
+        keep[first[line]:first[line] + count[line]] = False
+        keep[first[line] + np.linspace(0, count[line] - 1, max_per_line).astype(int)] = True
+    return ids[keep], np.arctan(lam[keep] / cam.mirror.scale)
+
+
+def _seed_pairs(o, d, ang, q, s, block=128):
+    """The (line, ray) pairs of :func:`_line_seeds` worth testing, a superset of those that pass.
+
+    With ``c`` the mean ray origin, ``rho`` the largest distance of an origin from it and ``D``
+    the line's distance from ``c``: a ray that passes within ``1.5 ang t`` of the line does so at
+    ``t >= (D - rho) / (1 + 1.5 ang)``, so its direction is within ``1.5 ang + rho (1 + 1.5 ang) /
+    (D - rho)`` (a sine) of the plane through ``c`` and the line. Lines nearer than ``2 rho`` keep
+    every ray. The bound has a relative slack of 1e-6, far above rounding."""
+    c = o.mean(axis=0)
+    rho = float(np.max(norm(o - c), initial=0.0))
+    n = np.cross(q - c, s)
+    D = norm(n)
+    far = D > 2.0 * rho
+    with np.errstate(divide="ignore", invalid="ignore"):
+        nh = np.where(far[:, None], n / np.where(far, D, 1.0)[:, None], 0.0)
+        slack = np.where(far, rho / np.where(far, D - rho, 1.0), np.inf) * (1.0 + 1.5 * float(ang.max(initial=0.0)))
+    bound_ray = 1.5 * ang * (1 + 1e-6) + 1e-12
+    lines, rays = [], []
+    for a in range(0, len(q), block):
+        dn = np.abs(nh[a:a + block] @ d.T) - bound_ray  # (lines, rays)
+        i, k = np.nonzero(dn <= slack[a:a + block, None] * (1 + 1e-6))
+        lines.append(i + a)
+        rays.append(k)
+    return np.concatenate(lines), np.concatenate(rays)
 
 
 def line_image(cam: CatadioptricCamera, points, directions, *, lam_range=None, max_step_px: float = 1.0,
