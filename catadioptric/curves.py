@@ -4,8 +4,9 @@ A curve here is given by a function of a parameter (an angle of direction for a
 vanishing curve, a position along a 3-D line for a line image) that returns every
 image point for each parameter value, NaN-padded along a fixed axis K with a
 ``valid`` mask. :func:`trace` samples the parameter, bisects it wherever two
-neighbouring samples are more than ``max_step_px`` apart in the image or where the
-curve leaves the observable region (down to ``param_tol``), links each point to the
+neighbouring samples are more than ``max_step_px`` apart on and around the image (far
+off it, the allowed step grows with the distance) or where the curve leaves the observable
+region (down to ``param_tol``), links each point to the
 nearest point of the next sample, and returns the connected pieces as polylines.
 Every vertex is an exactly computed point; nothing is interpolated.
 """
@@ -20,6 +21,7 @@ from ._checks import CatadioptricError, as_count, as_scalar
 __all__ = ["Piece", "trace", "sweep_options", "MAX_VERTICES"]
 
 MIN_STEP_PX = 1e-6
+OFF_IMAGE = 0.5  # off the image, the allowed step grows by this fraction of the distance from it
 MAX_VERTICES = 250_000  # samples of one curve: a curve across a 16k image at 1 px needs far fewer
 
 
@@ -48,8 +50,30 @@ class Piece:
     at_stop: bool = False
 
 
+class _Reach:
+    """The largest allowed distance between neighbouring vertices at pixels ``uv``: ``max_step_px``
+    on the image and within one image size around it (``image = (width, height)``); beyond, plus
+    half the distance from that margin, so that a curve running off toward infinity (a point near
+    the camera's horizon) needs a number of vertices that grows with the logarithm of its length,
+    not with its length."""
+
+    def __init__(self, step: float, image):
+        self.step, self.image = step, image
+
+    def __call__(self, uv: np.ndarray) -> np.ndarray:
+        if self.image is None:
+            return np.full(uv.shape[:-1], self.step)
+        W, H = self.image
+        m = max(W, H)
+        with np.errstate(invalid="ignore"):
+            du = np.maximum(np.maximum(-0.5 - m - uv[..., 0], uv[..., 0] - (W - 0.5 + m)), 0.0)
+            dv = np.maximum(np.maximum(-0.5 - m - uv[..., 1], uv[..., 1] - (H - 0.5 + m)), 0.0)
+            out = self.step + OFF_IMAGE * np.hypot(du, dv)
+        return np.where(np.isfinite(out), out, self.step)
+
+
 def trace(evaluate, start, stop, *, periodic=False, max_step_px=1.0, n_start=64, param_tol=1e-9,
-          max_rounds=60, seeds=None) -> list[list[Piece]]:
+          max_rounds=60, seeds=None, image=None) -> list[list[Piece]]:
     """Trace curves ``c = 0 .. C-1`` over parameters ``[start[c], stop[c]]``.
 
     ``evaluate(curve_ids (n,), params (n,)) -> (uv (n, K, 2), mirror_points (n, K, 3), valid (n, K))``.
@@ -57,10 +81,13 @@ def trace(evaluate, start, stop, *, periodic=False, max_step_px=1.0, n_start=64,
     ``seeds = (curve_ids, params)``: extra starting samples, e.g. parameters known to be
     seen by some pixel (see :func:`image_seeds`), so that pieces visible over a tiny range of
     the parameter are not missed between the uniform samples.
+    ``image = (width, height)``: beyond one image size around the image, the step grows with the
+    distance (half of it is added to ``max_step_px``).
     Returns, for each curve, its list of pieces. A curve that needs more than
     :data:`MAX_VERTICES` samples (a step far below a pixel) is refused, not traced for ever.
     """
     max_step_px, n_start, max_rounds = sweep_options(max_step_px, n_start, max_rounds)
+    reach = _Reach(max_step_px, image)
     start = np.atleast_1d(np.asarray(start, float))
     stop = np.atleast_1d(np.asarray(stop, float))
     C = len(start)
@@ -94,8 +121,8 @@ def trace(evaluate, start, stop, *, periodic=False, max_step_px=1.0, n_start=64,
         kk = max(int(va.sum(axis=1).max(initial=0)), int(vb.sum(axis=1).max(initial=0)), 1)  # valid slots come first
         d = np.linalg.norm(uv[left, :kk, None, :] - uv[right, None, :kk, :], axis=-1)
         d = np.where(va[:, :kk, None] & vb[:, None, :kk], d, np.inf)
-        far = np.any(va[:, :kk] & (d.min(axis=2) > max_step_px), axis=1) | \
-            np.any(vb[:, :kk] & (d.min(axis=1) > max_step_px), axis=1)
+        far = np.any(va[:, :kk] & (d.min(axis=2) > reach(uv[left, :kk])), axis=1) | \
+            np.any(vb[:, :kk] & (d.min(axis=1) > reach(uv[right, :kk])), axis=1)
         need = far & (pr_ - pl > param_tol)
         if not np.any(need):
             break
@@ -117,11 +144,15 @@ def trace(evaluate, start, stop, *, periodic=False, max_step_px=1.0, n_start=64,
         left, right = np.r_[l, new], np.r_[new, rr]
     order = np.lexsort((par, cid))
     cid, par, uv, r, valid = cid[order], par[order], uv[order], r[order], valid[order]
-    return [_merge(_chain(c, par[cid == c], uv[cid == c], r[cid == c], valid[cid == c], periodic, max_step_px,
-                          start[c], stop[c]), periodic, max_step_px) for c in range(C)]
+    return [_merge(_chain(c, par[cid == c], uv[cid == c], r[cid == c], valid[cid == c], periodic, reach,
+                          start[c], stop[c]), periodic, reach) for c in range(C)]
 
 
-def _merge(pieces: list[Piece], periodic: bool, max_step_px: float) -> list[Piece]:
+def _near(a: np.ndarray, b: np.ndarray, reach: _Reach, factor: float = 1.0) -> bool:
+    return bool(np.linalg.norm(a - b) <= factor * max(reach(a), reach(b)))
+
+
+def _merge(pieces: list[Piece], periodic: bool, reach: _Reach) -> list[Piece]:
     """Join pieces that continue one another (the end of one within a step of the start of the
     next: where two branches touch, the matching of samples can cut a curve), and close loops."""
     pieces = list(pieces)
@@ -134,7 +165,7 @@ def _merge(pieces: list[Piece], periodic: bool, max_step_px: float) -> list[Piec
                 continue
             for b in range(len(pieces)):
                 B = pieces[b]
-                if b == a or B.closed or np.linalg.norm(A.uv[-1] - B.uv[0]) > max_step_px:
+                if b == a or B.closed or not _near(A.uv[-1], B.uv[0], reach):
                     continue
                 pieces[a] = Piece(A.curve, np.concatenate([A.uv, B.uv]), np.concatenate([A.mirror_points, B.mirror_points]),
                                   np.concatenate([A.params, B.params]), False, A.at_start, B.at_stop)
@@ -144,7 +175,7 @@ def _merge(pieces: list[Piece], periodic: bool, max_step_px: float) -> list[Piec
             if changed:
                 break
     for p in pieces:
-        if periodic and not p.closed and len(p.uv) > 2 and np.linalg.norm(p.uv[-1] - p.uv[0]) <= max_step_px:
+        if periodic and not p.closed and len(p.uv) > 2 and _near(p.uv[-1], p.uv[0], reach):
             p.closed = True
     return pieces
 
@@ -158,11 +189,12 @@ def _piece(c, uv, r, par, ii, kk, closed, periodic, start, stop):
                  at_stop=(not periodic) and bool(par[ii[-1]] == stop))
 
 
-def _chain(c, par, uv, r, valid, periodic, max_step_px, start, stop) -> list[Piece]:
-    """Link each valid point to the nearest valid point of the next sample (within the step)."""
+def _chain(c, par, uv, r, valid, periodic, reach, start, stop) -> list[Piece]:
+    """Link each valid point to the nearest valid point of the next sample (within twice the step)."""
     n, K = valid.shape
     if n and valid.sum(axis=1).max(initial=0) <= 1:
-        return _chain_single(c, par, uv, r, valid, periodic, max_step_px, start, stop)
+        return _chain_single(c, par, uv, r, valid, periodic, reach, start, stop)
+    allow = reach(uv)
     succ, pred = {}, {}
     for i in range(n if periodic else n - 1):
         j = (i + 1) % n
@@ -170,10 +202,11 @@ def _chain(c, par, uv, r, valid, periodic, max_step_px, start, stop) -> list[Pie
             continue
         d = np.linalg.norm(uv[i][:, None, :] - uv[j][None, :, :], axis=-1)
         d = np.where(valid[i][:, None] & valid[j][None, :], d, np.inf)
+        d = np.where(d <= 2 * np.maximum(allow[i][:, None], allow[j][None, :]), d, np.inf)
         # greedy one-to-one matching, closest pairs first
         for flat in np.argsort(d, axis=None):
             a, b = divmod(int(flat), K)
-            if not np.isfinite(d[a, b]) or d[a, b] > 2 * max_step_px:
+            if not np.isfinite(d[a, b]):
                 break
             if (i, a) in succ or (j, b) in pred:
                 continue
@@ -201,14 +234,14 @@ def _chain(c, par, uv, r, valid, periodic, max_step_px, start, stop) -> list[Pie
     return pieces
 
 
-def _chain_single(c, par, uv, r, valid, periodic, max_step_px, start, stop) -> list[Piece]:
+def _chain_single(c, par, uv, r, valid, periodic, reach, start, stop) -> list[Piece]:
     """Fast path when every sample has at most one valid point: pieces are runs of linked samples."""
     n = len(par)
     k = np.argmax(valid, axis=1)
     has = valid[np.arange(n), k]
     p = uv[np.arange(n), k]
     nxt = np.r_[np.arange(1, n), 0]
-    link = has & has[nxt] & (np.linalg.norm(p[nxt] - p, axis=1) <= 2 * max_step_px)
+    link = has & has[nxt] & (np.linalg.norm(p[nxt] - p, axis=1) <= 2 * np.maximum(reach(p), reach(p[nxt])))
     if not periodic:
         link[-1] = False
     idx = np.arange(n)

@@ -44,7 +44,7 @@ def pluecker_point_direction(L) -> tuple[np.ndarray, np.ndarray]:
 class LineImage:
     """The image of one 3-D line or segment: its connected ``pieces`` (each a
     :class:`~catadioptric.curves.Piece`: ``uv (M, 2)`` with consecutive vertices at most the
-    requested step apart, ``mirror_points (M, 3)``, ``params`` = the line parameter lambda of
+    requested step apart on the image, ``mirror_points (M, 3)``, ``params`` = the line parameter lambda of
     each vertex, +-inf at the vanishing points), and the line's vanishing points:
     ``vanishing_uv (2, K, 2)`` / ``vanishing_valid (2, K)`` for ``+s`` (row 0) and ``-s`` (row 1)."""
 
@@ -107,6 +107,8 @@ def _line_seeds(cam, q, s, step, max_per_line=256):
     from .curves import pixel_grid_rays
 
     o, d, ang = pixel_grid_rays(cam, step)
+    if len(o) == 0:  # no grid pixel sees the world
+        return None
     i, k = _seed_pairs(o, d, ang, q, s)
     o, d, ang, q, s = o[k], d[k], ang[k], q[i], s[i]
     # closest approach of the ray o + t d and the line q + lam s (d, s unit)
@@ -166,7 +168,8 @@ def line_image(cam: CatadioptricCamera, points, directions, *, lam_range=None, m
     ``lam_range (N, 2)``: the segment ``lambda in [lo, hi]`` of each line (default: the
     whole line, ``-inf .. inf``, whose image ends at its vanishing points). Each image is
     every observable part of the line (in the patch, unobstructed, in front of the
-    camera), as pieces whose consecutive vertices are at most ``max_step_px`` apart.
+    camera), as pieces whose consecutive vertices are at most ``max_step_px`` apart on the
+    image and within one image size around it (beyond, the step grows by half the distance).
     Besides uniform samples of the angle ``phi = arctan(lambda / l)`` (``l`` the mirror's
     scale), the sweep starts from the line points seen by every ``seed_step``-th pixel (so
     that parts visible over a tiny range of lambda, e.g. near a caustic, are found).
@@ -193,7 +196,7 @@ def line_image(cam: CatadioptricCamera, points, directions, *, lam_range=None, m
     if N == 0:
         return []
     pieces = trace(_evaluator(cam, q, s), lo, hi, max_step_px=max_step_px, n_start=n_start,
-                   seeds=_line_seeds(cam, q, s, seed_step))
+                   seeds=_line_seeds(cam, q, s, seed_step), image=(cam.pinhole.width, cam.pinhole.height))
     vp = cam.vanishing_points(np.concatenate([s, -s]))
     out = []
     for i in range(N):

@@ -164,7 +164,8 @@ def vanishing_curve(cam: CatadioptricCamera, normal, *, max_step_px: float = 1.0
                     max_rounds: int = 60) -> list[VanishingCurve]:
     """The vanishing curve of the plane with ``normal`` (in M): the observable vanishing
     points of every direction perpendicular to it, as polylines whose consecutive
-    vertices are at most ``max_step_px`` apart in the image.
+    vertices are at most ``max_step_px`` apart on the image and within one image size around
+    it (beyond, where a curve can run toward infinity, the step grows by half the distance).
 
     Directions are swept by angle, ``s(theta) = cos(theta) e1 + sin(theta) e2`` with
     ``(e1, e2)`` an orthonormal basis of the plane (an angle, not the paper's
@@ -198,5 +199,6 @@ def vanishing_curve(cam: CatadioptricCamera, normal, *, max_step_px: float = 1.0
     if len(th) > 512:
         th = np.sort(th)[np.linspace(0, len(th) - 1, 512).astype(int)]
     pieces = trace(evaluate, [0.0], [2 * np.pi], periodic=True, max_step_px=max_step_px, n_start=n_start,
-                   max_rounds=max_rounds, seeds=(np.zeros(len(th), dtype=np.intp), th))[0]
+                   max_rounds=max_rounds, seeds=(np.zeros(len(th), dtype=np.intp), th),
+                   image=(cam.pinhole.width, cam.pinhole.height))[0]
     return [VanishingCurve(p.uv, p.mirror_points, dirs(p.params), p.closed) for p in pieces]

@@ -26,6 +26,10 @@ from .polynomial import deflate_linear, polyval, roots_in_unit_interval
 from .reflection import ReflectionSolver, fit_homogeneous_map, monomials, rotation_to_yz
 
 _SCREEN = 1e-5
+# x^2 = rho^2 - y^2 within this fraction of rho^2 of zero: x is ill-conditioned there (y comes from G,
+# which cancels for targets near the plane of the camera and the axis and for cameras near the axis);
+# such branches are kept as candidates with x = 0 when negative
+_NEAR_ZERO_X = 0.05
 
 
 def quad_roots(a, b, c):
@@ -140,10 +144,10 @@ class GeneralSolver(ReflectionSolver):
         # the polish and the acceptance test decide.
         # x^2 = rho^2 - y^2 may come out slightly negative for x ~ 0 (a root of the octic known to
         # about the square root of the rounding where two solutions share one z)
-        ok = (rho2[:, None] - ys**2 >= -1e-4 * np.maximum(np.abs(rho2)[:, None], ys**2) - 1e-9) & np.isfinite(ys)
+        ok = (rho2[:, None] - ys**2 >= -_NEAR_ZERO_X * np.maximum(np.abs(rho2)[:, None], ys**2) - 1e-9) & np.isfinite(ys)
         rel = np.where(ok, res / sc, np.inf)
         best = rel.min(axis=1, keepdims=True)
-        small_x = np.abs(xs) <= 1e-3 * np.sqrt(np.maximum(rho2, 0.0))[:, None]
+        small_x = xs**2 <= _NEAR_ZERO_X * np.maximum(rho2, 0.0)[:, None]
         no_e = np.abs(Ev) <= 1e-6 * polyval(np.abs(Ec), at)[:, None]
         keep = ok & ((rel <= np.maximum(_SCREEN, 10.0 * best)) | small_x | no_e)
         kk = np.nonzero(keep)
