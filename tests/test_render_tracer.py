@@ -178,3 +178,17 @@ def test_exact_ties_go_to_the_first_triangle_whatever_the_batch():
         alone = [bvh.labels_of(bvh.intersect(o[i:i + 1], d[i:i + 1]))[0] for i in range(0, 500, 50)]
         batch = bvh.labels_of(bvh.intersect(o, d))
         assert np.all(batch == want) and alone == [want] * 10
+
+
+def test_pixel_rays_are_the_backprojection_shared_per_rig():
+    from catadioptric.render.tracer import pixel_rays
+
+    cam = preset("sphere", width=40, height=30)
+    rays = pixel_rays(cam)
+    want = cam.backproject(cam.pinhole.pixel_grid())
+    for k in ("origins", "directions", "valid", "hit"):
+        assert np.array_equal(getattr(rays, k), getattr(want, k), equal_nan=k in ("origins", "directions"))
+        assert not getattr(rays, k).flags.writeable
+    assert pixel_rays(preset("sphere", width=40, height=30)) is rays  # the same rig: computed once
+    other = pixel_rays(preset("sphere", width=20, height=30))
+    assert other is not rays and other.valid.shape == (30, 20)

@@ -33,7 +33,7 @@ import numpy as np
 
 from .common import (LABEL_MIRROR_AGAIN, LABEL_NO_MIRROR, SUN_IRRADIANCE, RenderError, RenderResult, check_view,
                      linear_to_srgb8, load_quality, sky_radiance)
-from .tracer import scene_digest
+from .tracer import pixel_rays, scene_digest
 
 __all__ = ["render_mitsuba", "mitsuba_variant", "mitsuba_version", "mitsuba_labels"]
 
@@ -296,9 +296,8 @@ def mitsuba_labels(mscene, shape_label: dict, scene, cam, pose) -> np.ndarray:
     import drjit as dr
     import mitsuba as mi
 
-    uv = cam.pinhole.pixel_grid()
-    rays = cam.backproject(uv)
-    H, W = uv.shape[:2]
+    rays = pixel_rays(cam)  # shared with the float64 tracer (computed once per rig)
+    H, W = rays.valid.shape
     labels = np.full((H, W), LABEL_NO_MIRROR, dtype=np.int32)
     labels[rays.hit & ~rays.valid] = LABEL_MIRROR_AGAIN
     ok = rays.valid

@@ -25,6 +25,7 @@ the first object hit.
 from __future__ import annotations
 
 import hashlib
+import json
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,7 +33,7 @@ import numpy as np
 from .._checks import CatadioptricError, as_float_array
 from .._extras import require
 
-__all__ = ["TriangleBVH", "scene_bvh", "trace_labels", "trace_rays", "scene_digest",
+__all__ = ["TriangleBVH", "scene_bvh", "trace_labels", "trace_rays", "pixel_rays", "scene_digest",
            "LABEL_SKY", "LABEL_NO_MIRROR", "LABEL_MIRROR_AGAIN"]
 
 LABEL_SKY = 0
@@ -253,6 +254,25 @@ class TracedRays:
 TIE_REL = 1e-6
 
 
+_PIXEL_RAYS: dict = {}
+
+
+def pixel_rays(cam):
+    """The reflected rays (:meth:`CatadioptricCamera.backproject`, frame M) of every pixel centre of
+    ``cam``, as read-only arrays. They depend on the rig alone, so they are computed once per rig
+    and kept (the last two rigs): every view of a dataset, and the renderer's label pass, share them."""
+    key = hashlib.sha256(json.dumps(cam.to_dict(), sort_keys=True).encode()).hexdigest()
+    rays = _PIXEL_RAYS.get(key)
+    if rays is None:
+        rays = cam.backproject(cam.pinhole.pixel_grid())
+        for a in (rays.origins, rays.directions, rays.valid, rays.hit):
+            a.setflags(write=False)
+        if len(_PIXEL_RAYS) >= 2:
+            _PIXEL_RAYS.pop(next(iter(_PIXEL_RAYS)))
+        _PIXEL_RAYS[key] = rays
+    return rays
+
+
 def trace_rays(scene, cam, pose, uv=None, *, ties: bool = True) -> TracedRays:
     """Trace pixel rays (default: every pixel centre) of the rig ``cam`` placed by ``pose``
     (``x_M = R x_W + t``) through the mirror into ``scene`` (in W), in float64.
@@ -260,10 +280,10 @@ def trace_rays(scene, cam, pose, uv=None, *, ties: bool = True) -> TracedRays:
     ``ties``: also find the pixels whose first hit is ambiguous (a second query excluding
     the first hit's label; about doubles the time)."""
     if uv is None:
-        uv = cam.pinhole.pixel_grid()
-    uv = as_float_array(uv, "uv", 2)
-    rays = cam.backproject(uv)
-    shape = uv.shape[:-1]
+        rays = pixel_rays(cam)
+    else:
+        rays = cam.backproject(as_float_array(uv, "uv", 2))
+    shape = rays.valid.shape
     labels = np.full(shape, LABEL_NO_MIRROR, dtype=np.int32)
     labels[rays.hit & ~rays.valid] = LABEL_MIRROR_AGAIN
     o_W = np.where(rays.hit[..., None], (rays.origins - pose.t) @ pose.R, np.nan)
