@@ -144,7 +144,8 @@ def trace(evaluate, start, stop, *, periodic=False, max_step_px=1.0, n_start=64,
         left, right = np.r_[l, new], np.r_[new, rr]
     order = np.lexsort((par, cid))
     cid, par, uv, r, valid = cid[order], par[order], uv[order], r[order], valid[order]
-    return [_merge(_chain(c, par[cid == c], uv[cid == c], r[cid == c], valid[cid == c], periodic, reach,
+    cut = np.searchsorted(cid, np.arange(C + 1))  # curve c is samples cut[c]:cut[c + 1]
+    return [_merge(_chain(c, *(x[cut[c]:cut[c + 1]] for x in (par, uv, r, valid)), periodic, reach,
                           start[c], stop[c]), periodic, reach) for c in range(C)]
 
 
