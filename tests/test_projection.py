@@ -190,3 +190,187 @@ def test_a_row_gets_the_same_bits_alone_and_in_any_batch(name):
         assert np.array_equal(one.uv, pr.uv[i], equal_nan=True) and np.array_equal(one.valid, pr.valid[i])
     v1 = cam.vanishing_points(P[rows], which="both")
     assert np.array_equal(v1.uv, vp.uv[rows], equal_nan=True) and np.array_equal(v1.valid, vp.valid[rows])
+
+
+# ---------------------------------------------------------------- degeneracies (issue 12)
+def _issue_rigs():
+    pin = cd.PinholeCamera.from_fov(640, 480, 60.0)
+    sphere = cd.CatadioptricCamera.looking_at_mirror(cd.QuadricMirror(1.0, 0.0, 1.0, -1.0, 0.0), pin,
+                                                     (0.0, 0.8, -3.5), target=(0, 0, -1))
+    parab = cd.CatadioptricCamera.looking_at_mirror(cd.QuadricMirror(0.0, 3.4, 33.2, 0.0, 33.2 / 3.4), pin,
+                                                    (0.0, 0.0, 26.5), target=(0, 0, 0))
+    return sphere, parab
+
+
+OFFSETS = np.r_[0.0, np.logspace(-12, -9, 10), np.logspace(-8, -3, 6), 1e-12, 3e-11, 1e-9, 0.0]  # 21 points
+
+
+@pytest.mark.parametrize("which", ["sphere", "paraboloid"])
+def test_near_normal_incidence_down_to_the_normal_ray(which):
+    """Points 0 to 1e-3 off the line through the camera and its own reflection: the sphere seen
+    off-axis (the foot is where the line from the centre through the camera meets the sphere) and
+    the paraboloid seen on its axis (the foot is the vertex at z_max exactly). Found alone and in a
+    batch of 21, with the same bits."""
+    sphere, parab = _issue_rigs()
+    if which == "sphere":
+        cam = sphere
+        foot = cam.center / np.linalg.norm(cam.center)
+    else:
+        cam = parab
+        foot = np.array([0.0, 0.0, cam.mirror.z_max])
+    u = (cam.center - foot) / np.linalg.norm(cam.center - foot)
+    perp = np.cross(u, [1.0, 0, 0]) if abs(u[0]) < 0.9 else np.cross(u, [0, 1.0, 0])
+    perp /= np.linalg.norm(perp)
+    P = foot + 2.0 * u + OFFSETS[:, None] * perp
+    batch = cam.project(P)
+    assert batch.valid[:, 0].all() and (batch.valid.sum(axis=1) == 1).all()
+    # the reflection point moves with the offset; on the normal ray it is the foot itself
+    assert np.linalg.norm(batch.mirror_points[OFFSETS == 0, 0] - foot, axis=-1).max() < 1e-12
+    assert np.linalg.norm(batch.mirror_points[:, 0] - foot, axis=-1).max() < 1e-2
+    for i, p in enumerate(P):
+        one = cam.project(p)
+        assert np.array_equal(one.valid, batch.valid[i]) and np.array_equal(one.uv, batch.uv[i], equal_nan=True)
+    vp = cam.vanishing_points(u + OFFSETS[:, None] * perp)
+    assert vp.valid[:, 0].all()
+    assert np.linalg.norm(vp.mirror_points[OFFSETS == 0, 0] - foot, axis=-1).max() < 1e-12
+
+
+@pytest.mark.parametrize("name", ["hyperboloid_9pct", "hyperboloid", "ellipsoid", "sphere", "paraboloid"])
+def test_near_normal_incidence_on_the_presets(name):
+    """Pixels 0 to 1e-2 px from the pixel where the camera sees itself, points along their rays at
+    any depth (between the mirror and the camera, beyond it): every pixel comes back."""
+    from fuzz_api import normal_pixels
+
+    cam = preset(name, width=64, height=48)
+    [uv0] = normal_pixels(cam)
+    ang = np.linspace(0, 2 * np.pi, 7)
+    off = np.r_[0.0, 1e-12, 1e-9, 1e-6, 1e-4, 1e-2, 1e-2]
+    uv = uv0 + off[:, None] * np.stack([np.cos(ang), np.sin(ang)], -1)
+    rays = cam.backproject(uv)
+    assert rays.valid.all()
+    dist = np.linalg.norm(cam.center - rays.origins, axis=1)
+    for lam in np.r_[1e-3, 0.3, 0.999, 1.001, 3.0, 1e3][:, None] * dist[None]:
+        P = rays.origins + lam[:, None] * rays.directions
+        pr = cam.project(P)
+        err = np.where(pr.valid, np.linalg.norm(pr.uv - uv[:, None], axis=-1), np.inf).min(axis=1)
+        assert err.max() < 1e-7, (lam / dist, err)
+
+
+def test_points_near_the_other_focus_alone_and_batched():
+    """Near the second focus of the off-focus ellipsoid (up to four images each): the same bits alone
+    and in a batch (it was up to 1.2e-11 px)."""
+    cam = preset("ellipsoid")
+    P = cam.mirror.foci[1] + np.random.default_rng(4).normal(size=(3000, 3)) * 0.002
+    pr = cam.project(P)
+    assert pr.valid.sum(axis=1).max() >= 3
+    for i in range(0, 3000, 97):
+        one = cam.project(P[i])
+        assert np.array_equal(one.valid, pr.valid[i]) and np.array_equal(one.uv, pr.uv[i], equal_nan=True)
+
+
+def test_two_solutions_at_one_height_in_the_plane_of_camera_and_axis():
+    """A target in the plane of the camera and the axis, near the ellipsoid's other focus: one
+    solution in that plane and a symmetric pair off it share one root of the octic (it lost the
+    one in the plane)."""
+    cam = preset("ellipsoid", width=64, height=48)
+    c = cam.center
+    P = np.array([-0.00044305, -0.00029537, 0.04543507])  # (x, y) along -c's azimuth
+    assert abs(P[0] * c[1] - P[1] * c[0]) < 1e-9
+    pr = cam.project(P)
+    _match(pr.mirror_points, pr.valid, reflection_points(cam, P, 1.0, n_phi=1440, n_z=800), cam.mirror.scale)
+
+
+def test_camera_within_1e_8_of_the_axis():
+    """A one-sheet hyperboloid seen from 4.5e-9 m off its axis, a target nearly in the plane of the
+    camera and the axis: the octic's branches cancel in G (lost before)."""
+    m = cd.QuadricMirror(-2.5275695370604914, 0.0, 0.000694335268121173, -0.0031358961285384125,
+                         0.04301951253574224)
+    cam = cd.CatadioptricCamera.looking_at_mirror(m, cd.PinholeCamera.from_fov(64, 48, 90.0),
+                                                  (-2.49706007e-09, -3.66523667e-09, -1.49352176e-01),
+                                                  target=(0, 0, 0.5 * (m.z_min + m.z_max)))
+    assert cam.solver.name == "general"
+    P = np.array([-8.243041941436574e-05, -0.00012099308282118026, 0.2728609891364979])
+    pr = cam.project(P)
+    oracle = reflection_points(cam, P, 1.0, n_phi=1440, n_z=800)
+    assert oracle and pr.valid.sum() == 2
+    for r, v in oracle:
+        assert v and np.min(np.linalg.norm(pr.mirror_points[pr.valid] - r, axis=-1)) < 1e-9 * m.scale
+
+
+def test_target_on_the_axis_of_an_off_axis_hyperboloid():
+    """A point on the axis below the camera reflects just above the vertex (z_min): it was lost
+    (the branch screen rejected both branches of the symmetric configuration)."""
+    cam = preset("hyperboloid", width=96, height=72)
+    P = np.array([[0.0, 0.0, z] for z in (-5.0, -3.0, -1.0)])
+    pr = cam.project(P)
+    for i, p in enumerate(P):
+        _match(pr.mirror_points[i], pr.valid[i], reflection_points(cam, p, 1.0), cam.mirror.scale)
+    assert pr.valid[:, 0].all()
+
+
+# ---------------------------------------------------------------- units and magnitudes (issue 12)
+def _scaled(cam, k):
+    m = cam.mirror
+    return cd.CatadioptricCamera(cd.QuadricMirror(m.A, m.B * k, m.C * k * k, m.z_min * k, m.z_max * k),
+                                 cam.pinhole, cam.center * k, cam.R_cam_from_mirror)
+
+
+@pytest.mark.parametrize("name", preset_names())
+def test_the_same_answers_in_any_length_unit(name):
+    """Metres, millimetres and far beyond: the same solver, pixels, flags and rays (the paraboloid
+    scaled by 1e9 turned rays by 2.3 degrees; scaled by 1e-10 a rig got the axial solver)."""
+    cam = preset(name, width=160, height=120)
+    rng = np.random.default_rng(6)
+    uv = np.stack([rng.uniform(-0.5, 159.5, 400), rng.uniform(-0.5, 119.5, 400)], -1)
+    r1 = cam.backproject(uv)
+    ok = r1.valid
+    P = r1.origins[ok] + rng.uniform(0.01, 10.0, (ok.sum(), 1)) * r1.directions[ok]
+    S = rng.normal(size=(200, 3))
+    p1, v1 = cam.project(P), cam.vanishing_points(S)
+    for k in (1e3, 1e-3, 1e-10, 1e6, 1e9, 1e12):
+        ck = _scaled(cam, k)
+        assert ck.solver.name == cam.solver.name and ck.is_central == cam.is_central
+        r2 = ck.backproject(uv)
+        assert np.array_equal(r1.valid, r2.valid) and np.array_equal(r1.hit, r2.hit)
+        assert np.nanmax(np.abs(r1.directions - r2.directions)) < 1e-12
+        assert np.nanmax(np.abs(r1.origins * k - r2.origins)) < 1e-12 * k * cam.mirror.scale
+        p2 = ck.project(P * k)
+        assert np.array_equal(p1.valid, p2.valid) and np.nanmax(np.abs(p1.uv - p2.uv)) < 1e-8
+        v2 = ck.vanishing_points(S)
+        assert np.array_equal(v1.valid, v2.valid) and np.nanmax(np.abs(v1.uv - v2.uv)) < 1e-8
+
+
+@pytest.mark.parametrize("name", ["sphere", "hyperboloid_9pct", "hyperboloid_central", "paraboloid"])
+def test_directions_and_points_of_extreme_magnitude(name):
+    """Directions of length 1e-300 to 1e300 have the vanishing points of their unit vectors; points
+    1e10 to 1e300 mirror sizes away image next to them (they were lost beyond about 1e154)."""
+    cam = preset(name)
+    rng = np.random.default_rng(8)
+    S = rng.normal(size=(40, 3))
+    S /= np.linalg.norm(S, axis=1, keepdims=True)
+    vp = cam.vanishing_points(S)
+    rows = np.nonzero(vp.valid[:, 0])[0]
+    assert len(rows) >= 5
+    for k in (1e-300, 1e-162, 1e154, 1e300):
+        vk = cam.vanishing_points(S * k)
+        assert np.array_equal(vk.valid, vp.valid) and np.nanmax(np.abs(vk.uv - vp.uv)) < 1e-9
+    q = rng.normal(size=(len(rows), 3)) * 0.5
+    for lam in (1e10, 1e155, 1e300):
+        pr = cam.project(q + lam * S[rows])
+        d = np.where(pr.valid, np.linalg.norm(pr.uv - vp.uv[rows, :1], axis=-1), np.inf).min(axis=1)
+        assert d.max() < 1e-3
+    far = cam.backproject(np.array([[1e300, -1e300], [1e-300, 3.0]]))
+    assert np.all(np.isfinite(far.directions[far.valid]))
+
+
+def test_near_the_point_where_the_octic_vanishes():
+    """A target 0.5 mm from the other focus of the off-focus ellipsoid: the octic is 1e-9 of its
+    terms' size (it vanishes identically for a camera at one focus and a target at the other), so
+    the fitted map's rounding moved two close roots off the axis (two of the four solutions lost);
+    the octic is rebuilt from the target there."""
+    cam = preset("ellipsoid", width=64, height=48)
+    P = np.array([-0.0004806045841635881, -0.00031820964210288504, 0.04462549279773763])
+    pr = cam.project(P)
+    oracle = reflection_points(cam, P, 1.0, n_phi=1440, n_z=800)
+    assert len(oracle) == 4
+    _match(pr.mirror_points, pr.valid, oracle, cam.mirror.scale)

@@ -20,7 +20,7 @@ from .._numeric import rowdot
 from .constraints import axial_resultant, reflection_G
 from . import bivariate as bv
 from .polynomial import deflate_linear, polyval, roots_in_unit_interval
-from .reflection import ReflectionSolver, fit_homogeneous_map, monomials, rotation_to_yz
+from .reflection import ReflectionSolver, fit_homogeneous_map, map_coefficients, rotation_to_yz
 
 _SCREEN = 1e-5
 
@@ -39,6 +39,7 @@ class AxialSolver(ReflectionSolver):
             h = np.concatenate([np.zeros((len(h3), 1)), h3], axis=1)
             return self._deflate(axial_resultant(self.A, self.B, self.C, self.c3, self.zt, h))
 
+        self._poly = poly
         self._exps, self._qmap = fit_homogeneous_map(poly, 3, 2)
         Gb = reflection_G(self.A, self.B, self.C, 0.0, self.c3, self.zt, np.eye(4)[1:])
         self._gmap = np.stack([bv.y_coefficient(Gb, k, 5) for k in (2, 1, 0)], axis=1).reshape(3, 15)
@@ -69,7 +70,7 @@ class AxialSolver(ReflectionSolver):
 
     def _candidates(self, h):
         h3 = h[:, 1:]
-        Q = rowdot(monomials(h3, self._exps), self._qmap)
+        Q = map_coefficients(h3, self._exps, self._qmap, self._poly)
         ridx, t = roots_in_unit_interval(Q)
         z = self.zt[0] + self.zt[1] * t
         rho2 = self.C - self.A * z * z - self.B * z

@@ -23,7 +23,7 @@ from .._numeric import rowdot
 from . import bivariate as bv
 from .constraints import coplanarity, general_resultant, reflected_yz, reflection_G, resultant_quadratic_linear
 from .polynomial import deflate_linear, polyval, roots_in_unit_interval
-from .reflection import ReflectionSolver, fit_homogeneous_map, monomials, rotation_to_yz
+from .reflection import ReflectionSolver, fit_homogeneous_map, map_coefficients, rotation_to_yz
 
 _SCREEN = 1e-5
 # x^2 = rho^2 - y^2 within this fraction of rho^2 of zero: x is ill-conditioned there (y comes from G,
@@ -64,6 +64,7 @@ class GeneralSolver(ReflectionSolver):
             R, E = general_resultant(*a, h)
             return deflate_linear(deflate_linear(R, E), E)
 
+        self._octic = octic
         self._exps, self._qmap = fit_homogeneous_map(octic, 4, 4)
         at_infinity = self._exps[:, 3] == 0  # monomials free of w: all that directions need
         self._exps_dir, self._qmap_dir = self._exps[at_infinity], self._qmap[at_infinity]
@@ -111,10 +112,8 @@ class GeneralSolver(ReflectionSolver):
         e1 = (np.abs(h[:, 1]) <= 1e-12) & (np.abs(h[:, 2]) <= 1e-12) & (h[:, 3] == 0)
         gen = np.nonzero(~e1)[0]
         hg = h[gen]
-        if np.all(hg[:, 3] == 0):
-            Q = rowdot(monomials(hg, self._exps_dir), self._qmap_dir)
-        else:
-            Q = rowdot(monomials(hg, self._exps), self._qmap)
+        exps, qmap = (self._exps_dir, self._qmap_dir) if np.all(hg[:, 3] == 0) else (self._exps, self._qmap)
+        Q = map_coefficients(hg, exps, qmap, self._octic)
         ridx, t = roots_in_unit_interval(Q)
         owner = gen[ridx]
         hh = h[owner]

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._numeric import unit
+from .._numeric import rowdot, unit
 
 __all__ = ["ReflectionSolutions", "ReflectionSolver", "reflect", "monomials", "exponents"]
 
@@ -23,6 +23,8 @@ ACCEPT = 1e-9
 DEDUP = 1e-8
 # targets within this sine of a normal line (camera - foot) also start from the foot
 _NEAR_NORMAL = 1e-2
+# polynomial coefficients from the fitted map while they keep 10 of 16 digits, else rebuilt from the target
+_CANCELLED = 1e-6
 
 
 @dataclass
@@ -334,6 +336,22 @@ def gather(N, owner, r, fwd, K):
     fo[o, sl] = fwd[order][ok]
     found[o, sl] = True
     return ReflectionSolutions(out, fo, found)
+
+
+def map_coefficients(h, exps, qmap, exact):
+    """Polynomial coefficients of targets ``h (N, n)`` by the fitted map ``(exps, qmap)`` (one matrix
+    product), rebuilt by ``exact(h)`` for the targets where the map's sum cancels to below
+    ``_CANCELLED`` of its terms: near a target for which the polynomial vanishes identically (the
+    other focus of an ellipsoid seen from near its first focus, where every mirror point reflects)
+    the sum keeps only the absolute rounding of its terms, while the construction from the target
+    itself keeps its relative accuracy."""
+    M = monomials(h, exps)
+    Q = rowdot(M, qmap)
+    size = rowdot(np.abs(M), np.abs(qmap).max(axis=1))  # the terms' size, to within a factor n_out
+    weak = np.abs(Q).max(axis=1) < _CANCELLED * size
+    if np.any(weak):
+        Q[weak] = exact(h[weak])[:, :Q.shape[1]]
+    return Q
 
 
 def fit_homogeneous_map(fn, n_vars: int, degree: int, *, seed: int = 0):
