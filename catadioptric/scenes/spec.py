@@ -64,6 +64,41 @@ def _read_view(t: SpecTable, i: int) -> None:
         t.number("roll_deg", 0.0, what="an angle in degrees")
 
 
+MAX_GENERATED_VIEWS = 1_000_000  # views of one [[view_paths]] or [[random_views]] table
+
+
+def _read_view_path(t: SpecTable, i: int) -> None:
+    t.string("name", f"path{i}")
+    t.integer("count", REQUIRED, min=1, max=MAX_GENERATED_VIEWS)
+    raw = t.raw("points")
+    what = "a list of at least 2 points (3 numbers each)"
+    if raw is None:
+        raise t.error("points", f"missing; expected {what}")
+    if not (isinstance(raw, (list, tuple)) and len(raw) >= 2):
+        raise t.error("points", f"expected {what}, got {raw!r}")
+    pts = np.array(t.matrix("points", REQUIRED, rows=len(raw), cols=3))
+    if not np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)) > 0:
+        raise t.error("points", f"expected a path of positive length, got {raw!r}")
+    t.number("yaw_deg", 0.0, what="an angle in degrees")
+    t.number("pitch_deg", 0.0, what="an angle in degrees")
+    t.number("roll_deg", 0.0, what="an angle in degrees")
+    t.boolean("yaw_follows_path", False)
+
+
+def _read_random_views(t: SpecTable, i: int) -> None:
+    t.string("name", f"random{i}")
+    t.integer("count", REQUIRED, min=1, max=MAX_GENERATED_VIEWS)
+    t.integer("seed", 0, min=0)
+    lo = t.vector("position_min", REQUIRED)
+    hi = t.vector("position_max", REQUIRED)
+    if not all(a <= b for a, b in zip(lo, hi)):
+        raise t.error("position_max", f"expected at least position_min = {lo!r} in every coordinate, got {hi!r}")
+    for key, default in (("yaw_deg", [0.0, 360.0]), ("pitch_deg", [0.0, 0.0]), ("roll_deg", [0.0, 0.0])):
+        r = t.numbers(key, default, length=2, what="an angle range [low, high] in degrees")
+        if not r[0] <= r[1]:
+            raise t.error(key, f"expected an angle range [low, high] in degrees with low <= high, got {r!r}")
+
+
 def _read_rig(t: SpecTable) -> None:
     raw = t.raw("rig")
     if raw is None or isinstance(raw, str):
@@ -161,16 +196,16 @@ def _check_street(spec: dict) -> None:
             f"scene.markings.zebra_stripe_width: expected at most road_width - 1 = {st['road_width'] - 1.0!r}, "
             f"got {m['zebra_stripe_width']!r}")
     lim = half + st["sidewalk_width"]
-    for i, v in enumerate(spec["views"]):
+    for where, v in _all_views(spec):
         x, y, z = v["position"]
         if not (abs(y) < lim and abs(x) <= st["length"] / 2 and z > 0):
             raise CatadioptricError(
-                f"scene.views[{i}].position: expected a point above the street (|x| <= {st['length'] / 2!r}, "
+                f"{where}.position: expected a point above the street (|x| <= {st['length'] / 2!r}, "
                 f"|y| < road_width/2 + sidewalk_width = {lim!r}, z > 0), got {v['position']!r}")
         over_sidewalk = abs(y) >= half
         if over_sidewalk and not z > st["curb_height"]:
             raise CatadioptricError(
-                f"scene.views[{i}].position: a view over the sidewalk must be above the curb "
+                f"{where}.position: a view over the sidewalk must be above the curb "
                 f"(z > {st['curb_height']!r}), got {v['position']!r}")
 
 
@@ -230,9 +265,9 @@ def _check_chessboard(spec: dict) -> None:
             raise CatadioptricError(
                 f"scene.chessboard.boards[{i}].center: the board reaches below the ground (lowest point "
                 f"z = {low:.4g} m); raise it or tilt it")
-    for i, v in enumerate(spec["views"]):
+    for where, v in _all_views(spec):
         if not v["position"][2] > 0:
-            raise CatadioptricError(f"scene.views[{i}].position: expected a point above the ground (z > 0), "
+            raise CatadioptricError(f"{where}.position: expected a point above the ground (z > 0), "
                                     f"got {v['position']!r}")
 
 
@@ -257,15 +292,24 @@ def read_scene_spec(data, path: str = "scene") -> dict:
     view_tables = t.tables("views")
     for i, vt in enumerate(view_tables):
         _read_view(vt, i)
+    for i, vt in enumerate(t.tables("view_paths")):
+        _read_view_path(vt, i)
+    for i, vt in enumerate(t.tables("random_views")):
+        _read_random_views(vt, i)
     if street:
         _read_street_tables(t)
     else:
         _read_chessboard_tables(t)
     spec = t.done()
-    names = [v["name"] for v in spec.get("views", [])]
+    for key in ("view_paths", "random_views"):  # absent when none (normalised specs stay as they were)
+        if not spec.get(key):
+            spec.pop(key, None)
+    seen = set()
+    for where, v in _all_views(spec):
+        if v["name"] in seen:
+            raise CatadioptricError(f"{where}.name: duplicate view name {v['name']!r}")
+        seen.add(v["name"])
     for i, v in enumerate(spec.get("views", [])):
-        if names.index(v["name"]) != i:
-            raise CatadioptricError(f"scene.views[{i}].name: duplicate view name {v['name']!r}")
         if "R_world_from_mirror" in v:
             try:
                 RigPose.from_mirror_in_world(np.array(v["R_world_from_mirror"]), v["position"])
@@ -333,8 +377,53 @@ def view_rotation(yaw_deg: float, pitch_deg: float = 0.0, roll_deg: float = 0.0)
     return Rz @ Ry @ Rx
 
 
+def _path_views(t: dict, j: int) -> list[dict]:
+    """The views of a ``[[view_paths]]`` table: ``count`` positions evenly spaced by arc length along
+    the polyline ``points``, both ends included (one view: the first point)."""
+    pts = np.array(t["points"], dtype=np.float64)
+    seg = np.diff(pts, axis=0)
+    cum = np.r_[0.0, np.cumsum(np.linalg.norm(seg, axis=1))]
+    n = t["count"]
+    s = cum[-1] * np.arange(n) / max(n - 1, 1)
+    k = np.clip(np.searchsorted(cum, s, side="right") - 1, 0, len(seg) - 1)  # the segment holding s
+    while np.any(cum[k + 1] == cum[k]):  # zero-length segments hold nothing
+        k = np.where(cum[k + 1] == cum[k], np.maximum(k - 1, 0), k)
+    f = np.clip((s - cum[k]) / np.where(cum[k + 1] > cum[k], cum[k + 1] - cum[k], 1.0), 0.0, 1.0)
+    pos = pts[k] + f[:, None] * seg[k]
+    pos[-1] = pts[-1] if n > 1 else pts[0]
+    heading = np.degrees(np.arctan2(seg[k, 1], seg[k, 0])) if t["yaw_follows_path"] else np.zeros(n)
+    w = len(str(n - 1))
+    return [{"name": f"{t['name']}_{i:0{w}d}", "position": pos[i].tolist(), "yaw_deg": t["yaw_deg"] + float(heading[i]),
+             "pitch_deg": t["pitch_deg"], "roll_deg": t["roll_deg"]} for i in range(n)]
+
+
+def _random_views(t: dict, j: int) -> list[dict]:
+    """The views of a ``[[random_views]]`` table: positions uniform in the box ``position_min`` ..
+    ``position_max`` and angles uniform in their ranges, drawn from ``numpy.random.default_rng(seed)``
+    (all positions, then all yaws, pitches and rolls)."""
+    n = t["count"]
+    rng = np.random.default_rng(t["seed"])
+    pos = rng.uniform(t["position_min"], t["position_max"], (n, 3))
+    ang = [rng.uniform(*t[k], n) for k in ("yaw_deg", "pitch_deg", "roll_deg")]
+    w = len(str(n - 1))
+    return [{"name": f"{t['name']}_{i:0{w}d}", "position": pos[i].tolist(), "yaw_deg": float(ang[0][i]),
+             "pitch_deg": float(ang[1][i]), "roll_deg": float(ang[2][i])} for i in range(n)]
+
+
+def _all_views(spec: dict) -> list[tuple[str, dict]]:
+    """Every view of a normalised spec with the key path its errors name: the ``[[views]]`` in file
+    order (``scene.views[i]``), then the views of each ``[[view_paths]]`` and ``[[random_views]]``
+    table (``scene.view_paths[j].<view name>``)."""
+    out = [(f"scene.views[{i}]", v) for i, v in enumerate(spec.get("views", []))]
+    for key, make in (("view_paths", _path_views), ("random_views", _random_views)):
+        for j, t in enumerate(spec.get(key, [])):
+            out += [(f"scene.{key}[{j}].{v['name']}", v) for v in make(t, j)]
+    return out
+
+
 def views(spec_or_path) -> list[tuple[str, RigPose]]:
-    """The views of a scene spec as ``(name, RigPose)``, in file order.
+    """The views of a scene spec as ``(name, RigPose)``: the ``[[views]]`` in file order, then those
+    of each ``[[view_paths]]`` and ``[[random_views]]`` table (docs/formats.md, "Scene specs").
 
     Each view places the rig's mirror frame M in W: its origin at ``position`` and its
     axes ``R_world_from_mirror`` (explicit, or from ``yaw_deg``/``pitch_deg``/``roll_deg``,
@@ -342,7 +431,7 @@ def views(spec_or_path) -> list[tuple[str, RigPose]]:
     """
     spec = as_spec(spec_or_path)
     out = []
-    for v in spec["views"]:
+    for _, v in _all_views(spec):
         if "R_world_from_mirror" in v:
             Rw = np.array(v["R_world_from_mirror"], dtype=np.float64)
         else:
