@@ -68,3 +68,67 @@ def test_constructor_arguments():
         cd.QuadricMirror.cone(2.0, z_min=-1.0, z_max=0.0)
     with pytest.raises(cd.CatadioptricError, match=r"name: expected one of \["):
         preset("no-such-rig")
+
+
+# ---------------------------------------------------------------- issue 12: every bad input refused by name
+def _cam():
+    return preset("hyperboloid_9pct", width=64, height=48)
+
+
+K = np.array([[100.0, 0, 31.5], [0, 100.0, 23.5], [0, 0, 1]])
+P = np.random.default_rng(0).normal(size=(4, 3))
+N = np.array([0.0, 0.0, 1.0])
+CASES = [
+    # hangs that ate memory, and steps or counts of the wrong kind
+    (lambda: _cam().vanishing_curve(N, max_step_px=0), r"max_step_px: expected a positive number, got 0.0"),
+    (lambda: _cam().vanishing_curve(N, max_step_px=-1), r"max_step_px: expected a positive number, got -1.0"),
+    (lambda: _cam().line_image(P[:1], P[1:2], max_step_px=0), r"max_step_px: expected a positive number"),
+    (lambda: _cam().vanishing_curve(N, max_step_px=1e-320), r"max_step_px: expected a step of at least 1e-06 px"),
+    (lambda: _cam().vanishing_curve(N, max_step_px=np.nan), r"max_step_px: expected a finite number, got nan"),
+    (lambda: _cam().line_image(P[:1], P[1:2], max_step_px=np.inf), r"max_step_px: expected a finite number, got inf"),
+    (lambda: _cam().vanishing_curve(N, max_step_px="1"), r"max_step_px: expected a real number, got '1'"),
+    (lambda: _cam().vanishing_curve(N, n_start=0), r"n_start: expected an integer in \[2, 1000000\], got 0"),
+    (lambda: _cam().vanishing_curve(N, n_start=1.5), r"n_start: expected an integer, got 1.5"),
+    (lambda: _cam().vanishing_curve(N, n_start=10**12), r"n_start: expected an integer in \[2, 1000000\]"),
+    (lambda: _cam().vanishing_curve(N, max_rounds=-3), r"max_rounds: expected an integer in \[0, 10000\], got -3"),
+    (lambda: _cam().vanishing_curve(N, max_rounds=True), r"max_rounds: expected an integer, got True"),
+    (lambda: _cam().line_image(P[:1], P[1:2], seed_step=0), r"seed_step: expected an integer in \[1, 1000000\], got 0"),
+    (lambda: _cam().line_image(P[:1], P[1:2], seed_step=np.nan), r"seed_step: expected an integer, got nan"),
+    (lambda: _cam().line_image(P[:1], P[1:2], n_start=-3), r"n_start: expected an integer in \[2, 1000000\], got -3"),
+    # accepted though wrong: complex, bool, dates, strings
+    (lambda: _cam().project(P + 1j), r"points: expected real numbers, got an array of dtype complex128"),
+    (lambda: _cam().project(P > 0), r"points: expected real numbers, got an array of dtype bool"),
+    (lambda: _cam().vanishing_points(np.full((2, 3), np.datetime64("2020-01-01"))),
+     r"directions: expected real numbers, got an array of dtype datetime64\[D\]"),
+    (lambda: _cam().backproject(np.full((2, 2), "1.0")), r"uv: expected real numbers, got an array of dtype <U3"),
+    (lambda: _cam().directions_from_vanishing_points(np.zeros((2, 2), bool)),
+     r"uv: expected real numbers, got an array of dtype bool"),
+    (lambda: cd.PinholeCamera(K, True, 48), r"width: expected a positive integer number of pixels, got True"),
+    (lambda: cd.QuadricMirror.paraboloid(0.01, 0.0, 0.02, opening=True), r"opening: expected \+1 \(opens to \+z\) or -1, got True"),
+    (lambda: cd.PinholeCamera(np.diag([-100.0, 100.0, 1.0]), 64, 48), r"K: expected positive focal lengths K\[0,0\] > 0 and K\[1,1\] > 0"),
+    (lambda: cd.QuadricMirror.sphere(1.0, 1.0, 2.0), r"z_min, z_max: the patch z in \[1.0, 2.0\] touches the surface at one height only"),
+    (lambda: cd.QuadricMirror(True, 0.0, 1.0, -1.0, 0.0), r"A: expected a real number, got True"),
+    # errors that named the wrong thing or none
+    (lambda: cd.PinholeCamera.from_fov(0, 48, 40.0), r"width: expected a positive integer number of pixels, got 0"),
+    (lambda: cd.PinholeCamera.from_fov("64", 48, 40.0), r"width: expected a positive integer number of pixels, got '64'"),
+    (lambda: cd.CatadioptricCamera.looking_at_mirror(_cam().mirror, _cam().pinhole, [0, 0, -0.05], up=[np.nan, 0, 0]),
+     r"up: expected finite values, got nan at index \(0,\)"),
+    (lambda: cd.CatadioptricCamera.looking_at_mirror(_cam().mirror, _cam().pinhole, [0, 0, -0.05], up=[0, 0, 0]),
+     r"up: expected a non-zero 3-vector, got \[0.0, 0.0, 0.0\]"),
+    (lambda: cd.CatadioptricCamera.from_dict({"mirror": {}, "pinhole": {}}),
+     r"d: expected a dict with keys \['mirror', 'pinhole', 'center', 'R_cam_from_mirror'\], got one without "
+     r"\['center', 'R_cam_from_mirror'\]"),
+    (lambda: cd.CatadioptricCamera.from_dict(dict(_cam().to_dict(), pinhole={"K": K.tolist()})),
+     r"d\['pinhole'\]: expected a dict with keys \['K', 'width', 'height'\], got one without \['width', 'height'\]"),
+    (lambda: _cam().segment_image(P, P[:2] + 1), r"p0, p1: expected the same number of end points, got 4 and 2"),
+    (lambda: cd.QuadricMirror(1e300, 0.0, 1.0, -1e-160, 1e-160), r"A: expected \|A\| <= 1e\+06"),
+    (lambda: cd.QuadricMirror.cylinder(1e-200, -1.0, 1.0), r"radius: expected a length between 1e-150 and 1e150"),
+    (lambda: cd.QuadricMirror.sphere(1e200, -1.0, 1.0), r"radius: expected a length between 1e-150 and 1e150"),
+    (lambda: cd.QuadricMirror(1.0, 1e300, 1.0, -1.0, 1.0), r"A, B, C: expected a surface whose size is a finite float"),
+]
+
+
+@pytest.mark.parametrize("call,message", CASES, ids=[str(i) for i in range(len(CASES))])
+def test_bad_input_is_refused_by_name(call, message):
+    with pytest.raises(cd.CatadioptricError, match=message):
+        call()

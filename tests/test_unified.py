@@ -411,3 +411,39 @@ def test_sympy_derivation_checks_pass():
     out = subprocess.run([sys.executable, script], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stdout + out.stderr
     assert out.stdout.count("ok  ") == 16 and "FAIL" not in out.stdout
+
+
+# ---------------------------------------------------------------- issue 12: magnitudes and bad input
+def test_points_directions_and_lines_of_extreme_magnitude():
+    """Points 1e-300 to 1e300 from the viewpoint, directions and lines of any length: the same
+    pixels and conics as moderate ones (norms overflowed beyond about 1e154, underflowed below 1e-162)."""
+    u = UnifiedCamera(0.8, np.array([[200.0, 0, 160], [0, -200.0, 120], [0, 0, 1]]), width=320, height=240)
+    rng = np.random.default_rng(3)
+    d = rng.normal(size=(20, 3))
+    ref = u.project(d)
+    for k in (1e-300, 1e-162, 1e154, 1e300):
+        pr = u.project(d * k)
+        assert np.array_equal(pr.valid, ref.valid) and np.nanmax(np.abs(pr.uv - ref.uv)) < 1e-9
+        vp = u.vanishing_points(d * k)
+        assert np.array_equal(vp.valid, ref.valid) and np.nanmax(np.abs(vp.uv - ref.uv)) < 1e-9
+    q, s = rng.normal(size=(5, 3)), rng.normal(size=(5, 3))
+    C = u.line_image(q, s)
+    for kq, ks in ((1e-200, 1e300), (1e300, 1e-300), (1e160, 1e160)):
+        Ck = u.line_image(q * kq, s * ks)
+        assert np.minimum(np.abs(Ck - C).max(axis=(1, 2)), np.abs(Ck + C).max(axis=(1, 2))).max() < 1e-9
+    sm, smk = u.sample_line_image(q, s, num=16), u.sample_line_image(q * 1e300, s * 1e-300, num=16)
+    assert np.array_equal(sm.valid, smk.valid) and np.nanmax(np.abs(sm.uv - smk.uv)) < 1e-6
+    rays = u.backproject(np.array([[1e300, -1e300], [160.0, 120.0]]))
+    assert np.all(np.isfinite(rays.directions[rays.valid]))
+
+
+def test_bad_input_of_the_unified_model_is_refused_by_name():
+    K = np.array([[200.0, 0, 160], [0, 200.0, 120], [0, 0, 1]])
+    with pytest.raises(cd.CatadioptricError, match=r"width: expected a positive integer number of pixels or None, got True"):
+        UnifiedCamera(0.5, K, width=True, height=240)
+    with pytest.raises(cd.CatadioptricError, match=r"xi: expected a real number, got \(0.5\+1j\)"):
+        UnifiedCamera(0.5 + 1j, K)
+    with pytest.raises(cd.CatadioptricError, match=r"points: expected real numbers, got an array of dtype complex128"):
+        UnifiedCamera(0.5, K).project(np.ones((2, 3)) + 1j)
+    with pytest.raises(cd.CatadioptricError, match=r"num: expected an integer, got 16.0"):
+        UnifiedCamera(0.5, K).sample_line_image([0, 0, 1.0], [1.0, 0, 0], num=16.0)

@@ -228,3 +228,26 @@ def test_minus_s_points_are_the_plus_s_points_of_the_opposite_direction(name):
     neg = cam.vanishing_points(-S)
     assert np.array_equal(both.valid, neg.valid)
     assert np.allclose(np.nan_to_num(both.uv, nan=-1), np.nan_to_num(neg.uv, nan=-1), atol=1e-9)
+
+
+@pytest.mark.parametrize("k", [1.0, 1e-3, 1e3, 7.3])
+@pytest.mark.parametrize("upper", [True, False])
+def test_the_axis_of_a_central_rig_vanishes_at_the_image_centre(k, upper):
+    """A central hyperbolic rig whose patch starts at the vertex, looking along the axis: the axis
+    direction's vanishing point is the vertex's pixel, the image centre (it was lost: the vertex
+    rounds to either side of z_min)."""
+    a, c, span = 0.03 * k, 0.04 * k, 0.035 * k
+    if upper:
+        m = cd.QuadricMirror.hyperboloid(a, c, z_min=c, z_max=c + span)
+        F, axis = m.foci[0], np.array([0.0, 0.0, -1.0])
+    else:
+        m = cd.QuadricMirror.hyperboloid(a, c, z_min=-c - span, z_max=-c)
+        F, axis = m.foci[1], np.array([0.0, 0.0, 1.0])
+    cam = cd.CatadioptricCamera.looking_at_mirror(m, cd.PinholeCamera.from_fov(640, 480, 60.0), F,
+                                                  target=(0, 0, 0.5 * (m.z_min + m.z_max)))
+    assert cam.is_central
+    vp = cam.vanishing_points(np.array([axis, -axis]))
+    assert vp.valid[0, 0] and not vp.valid[1].any()
+    assert np.allclose(vp.uv[0, 0], [319.5, 239.5], atol=1e-9)
+    assert abs(vp.mirror_points[0, 0, 2] - (m.z_min if upper else m.z_max)) < 1e-12 * m.scale
+    assert np.allclose(cam.directions_from_vanishing_points(vp.uv[0, 0]), axis, atol=1e-12)
