@@ -193,10 +193,12 @@ def random_pixels(cam, rng, n, near=None):
 
 
 # ----------------------------------------------------------------------------- valid-input checks
-def ill_conditioned(cam, p, rel=1e-9, px=1e-3):
+def ill_conditioned(cam, p, rel=1e-7, px=1e-3):
     """True when moving the point ``p`` by ``rel`` times the mirror's scale moves one of its images by
-    more than ``px`` pixels or changes their number (near a caustic, or on a ring of solutions such
-    as a sphere's axis through the camera): its pixels are then defined only to that precision."""
+    more than ``px`` pixels or changes their number (near a caustic, or near a ring of solutions: a
+    target on a sphere's axis through the camera, or a target near the axis of a camera within 1e-8
+    of it): its pixels are then defined only to that precision, and which of them rounding finds
+    is not a wrong answer."""
     rng = np.random.default_rng(0)
     e = rng.normal(size=(4, 3))
     e *= rel * cam.mirror.scale / np.linalg.norm(e, axis=1, keepdims=True)
@@ -281,11 +283,11 @@ def units(cam, rng, near):
     P = r1.origins[both] + cam.mirror.scale * 10.0 ** rng.uniform(-1, 3, (both.sum(), 1)) * r1.directions[both]
     p1, p2 = cam.project(P), ck.project(P * k)
     bad = np.nonzero(np.any(p1.valid != p2.valid, axis=1))[0]
-    bad = [i for i in bad if not ill_conditioned(cam, P[i])]
+    bad = [i for i in bad if not (ill_conditioned(cam, P[i]) or ill_conditioned(ck, P[i] * k))]
     check(not len(bad), f"project valid differs at scale {k:g} for point {P[bad[:1]].tolist()}: "
                         f"{p1.valid[bad[:1]].tolist()} and {p2.valid[bad[:1]].tolist()}")
     du = np.nanmax(np.abs(p1.uv - p2.uv), axis=(1, 2), initial=0.0)
-    bad = [i for i in np.nonzero(du >= 1e-7)[0] if not ill_conditioned(cam, P[i])]
+    bad = [i for i in np.nonzero(du >= 1e-7)[0] if not (ill_conditioned(cam, P[i]) or ill_conditioned(ck, P[i] * k))]
     check(not len(bad), f"project pixels differ by {du.max():.3g} px at scale {k:g} for point "
                         f"{P[bad[:1]].tolist()}")
     S = r1.directions[both]
