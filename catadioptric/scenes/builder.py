@@ -36,16 +36,24 @@ def canonical_direction(direction) -> np.ndarray:
     raise AssertionError("unreachable: a unit vector has a component above 1e-12")
 
 
+def _count_text(n) -> str:
+    return str(int(n)) if n < 1e15 else f"{float(n):.3g}"
+
+
 class SceneBuilder:
     """Collects labelled meshes and labelled line segments, then builds a :class:`Scene`.
 
     ``sides`` is the number of sides of every line tube and ``clearance`` the gap
-    (metres) left between a tube and the surface it is drawn on.
+    (metres) left between a tube and the surface it is drawn on. ``max_triangles`` (the
+    spec's ``scene.max_triangles``): adding past it raises at once, so that a generator never
+    builds (or loops over) more than that before the error.
     """
 
-    def __init__(self, *, sides: int = 6, clearance: float = 0.002):
+    def __init__(self, *, sides: int = 6, clearance: float = 0.002, max_triangles: int | None = None):
         self.sides = int(sides)
         self.clearance = float(clearance)
+        self.max_triangles = max_triangles
+        self._triangles = 0
         self._depth = tube_depth(self.sides)
         self._objects: list[SceneObject] = []
         self._families: list[np.ndarray] = []
@@ -65,6 +73,7 @@ class SceneBuilder:
         """Add one labelled mesh; returns its label."""
         v = np.ascontiguousarray(vertices, dtype=np.float64)
         f = np.ascontiguousarray(faces, dtype=np.int64)
+        self._count(len(f))
         label = self._label()
         self._objects.append(SceneObject(name, label, v, f, tuple(float(c) for c in color), kind))
         return label
@@ -109,6 +118,7 @@ class SceneBuilder:
         length = float(length)
         if not length > 0:
             raise CatadioptricError(f"length: expected a positive segment length, got {length!r}")
+        self._count(self.tube_triangles)
         d = np.asarray(direction, dtype=np.float64)
         fid = self.family(d)
         f = self._families[fid]
@@ -137,9 +147,27 @@ class SceneBuilder:
         return label
 
     @property
+    def tube_triangles(self) -> int:
+        """Triangles of one line tube."""
+        return 4 * self.sides - 4
+
+    @property
     def triangle_count(self) -> int:
         """Triangles so far, the tubes still to be built included."""
-        return sum(len(o.faces) for o in self._objects) + len(self._seg["label"]) * (4 * self.sides - 4)
+        return self._triangles
+
+    def check(self, n, what: str = "") -> None:
+        """A ``scene.max_triangles`` error if ``n`` more triangles (a batch about to be made: call this
+        before making it) would exceed ``max_triangles``."""
+        total = self._triangles + n
+        if self.max_triangles is not None and total > self.max_triangles:
+            raise CatadioptricError(
+                f"scene.max_triangles: the scene would have at least {_count_text(total)} triangles{what}, more than "
+                f"max_triangles = {self.max_triangles}; make the scene smaller or raise the limit")
+
+    def _count(self, n: int) -> None:
+        self.check(n)
+        self._triangles += int(n)
 
     # ------------------------------------------------------------------- build
     def build(self, *, name: str, seed: int, sun, spec: dict) -> Scene:

@@ -65,6 +65,7 @@ def _read_view(t: SpecTable, i: int) -> None:
 
 
 MAX_GENERATED_VIEWS = 1_000_000  # views of one [[view_paths]] or [[random_views]] table
+MAX_TRIANGLES = 50_000_000  # a scene of more does not fit the renderers' memory on a common machine
 
 
 def _read_view_path(t: SpecTable, i: int) -> None:
@@ -112,7 +113,7 @@ def _read_street_tables(t: SpecTable) -> None:
     s = t.table("street")
     s.number("length", 120.0, positive=True)
     s.number("road_width", 8.0, positive=True)
-    s.integer("lanes", 2, min=1)
+    s.integer("lanes", 2, min=1, max=100)
     s.number("sidewalk_width", 3.0, positive=True)
     s.number("curb_height", 0.15, positive=True)
     s.range("block_length_range", [35.0, 50.0])
@@ -282,7 +283,7 @@ def read_scene_spec(data, path: str = "scene") -> dict:
     t.string("source", None)
     gen = t.string("generator", REQUIRED, choices=GENERATORS)
     t.integer("seed", 0, min=0)
-    t.integer("max_triangles", 60000, min=1)
+    t.integer("max_triangles", 60000, min=1, max=MAX_TRIANGLES)
     _read_rig(t)
     _read_sun(t.table("sun"))
     street = gen == "street"

@@ -33,7 +33,7 @@ from .meshes import extrude_polygon, extrude_profile, merge, oriented_box, quads
 from .scene import Scene
 from .spec import sun_direction
 
-__all__ = ["build_street", "street_blocks", "footprint"]
+__all__ = ["build_street", "street_blocks", "min_blocks", "footprint"]
 
 _Z = np.array([0.0, 0.0, 1.0])
 _BASE = -0.1  # solids start below the ground so that no face is coplanar with it
@@ -61,9 +61,19 @@ def street_blocks(spec: dict, seed: int) -> list[tuple[float, float]]:
         x1 = min(x + rng.uniform(lo, hi), half)
         if half - (x1 + st["cross_street_width"]) < lo / 2:
             x1 = half  # no room for another block: this one runs to the end of the street
+        if not x1 > x:  # pragma: no cover - refused before by build_street's block count
+            raise CatadioptricError(f"scene.street.length: {st['length']!r} m is beyond the float precision of "
+                                    f"blocks of {lo!r} to {hi!r} m")
         blocks.append((float(x), float(x1)))
         x = x1 + st["cross_street_width"]
     return blocks
+
+
+def min_blocks(spec: dict) -> float:
+    """A lower bound of the number of blocks (each at most ``block_length_range[1]`` long, plus a
+    cross street): known before any block is drawn."""
+    st = spec["street"]
+    return math.floor(st["length"] / (st["block_length_range"][1] + st["cross_street_width"]))
 
 
 def footprint(kind: str, w: float, d: float, rng: np.random.Generator) -> np.ndarray:
@@ -92,7 +102,7 @@ class _Street:
         self.spec = spec
         self.seed = seed
         ln = spec["lines"]
-        self.B = SceneBuilder(sides=ln["sides"], clearance=ln["clearance"])
+        self.B = SceneBuilder(sides=ln["sides"], clearance=ln["clearance"], max_triangles=spec["max_triangles"])
         self.r = ln["radius"]
         self.flatten = ln["flatten"]
         self.eps = ln["clearance"]
@@ -249,6 +259,13 @@ class _Street:
         fh = bs["floor_height"]
         w, h, depth = ws["width"], ws["height"], ws["depth"]
         sunk = 0.05  # panes start inside the wall: no face is coplanar with the facade
+        # count before making them: a box (12 triangles) and four edge tubes per window
+        count = 0.0
+        for i in range(len(V)):
+            usable = Elen[i] - 2 * ws["margin"]
+            if (ws["facades"] != "street" or facing[i]) and usable >= w:
+                count += (math.floor((usable - w) / ws["spacing"] + 1e-9) + 1) * n_floors
+        self.B.check(count * (12 + (4 * self.B.tube_triangles if ws["lines"] else 0)), f" ({count:.3g} windows on {name})")
         panes, frames = [], []
         for i in range(len(V)):
             if ws["facades"] == "street" and not facing[i]:
@@ -342,18 +359,21 @@ class _Street:
 def build_street(spec: dict, seed: int) -> Scene:
     """The street scene of a normalised ``generator = "street"`` spec (see ``docs/formats.md``)."""
     g = _Street(spec, seed)
+    sides = {"both": ((1, 0), (-1, 1)), "north": ((1, 0),), "south": ((-1, 1),)}[spec["street"]["sides"]]
+    st = spec["street"]
+    nb = min_blocks(spec)  # every block is at least a slab (a box, 12 triangles) on each side
+    if 2 + 12 * len(sides) * nb > spec["max_triangles"]:
+        raise CatadioptricError(
+            f"scene.street.length: a street of {st['length']!r} m has at least {nb:.6g} blocks (each at most "
+            f"block_length_range[1] + cross_street_width = {st['block_length_range'][1] + st['cross_street_width']!r} m "
+            f"long), at least {12 * len(sides) * nb:.6g} triangles: more than max_triangles = "
+            f"{spec['max_triangles']}; shorten the street or raise scene.max_triangles")
     ground = g.ground()
     blocks = street_blocks(spec, seed)
-    sides = {"both": ((1, 0), (-1, 1)), "north": ((1, 0),), "south": ((-1, 1),)}[spec["street"]["sides"]]
     for side, si in sides:
         for j, (x0, x1) in enumerate(blocks):
             tag = f"{'ns'[si]}{j}"
             g.block_slab(tag, side, x0, x1)
             g.buildings(tag, side, si, j, x0, x1)
-    g.markings(ground, blocks)
-    n = g.B.triangle_count
-    if n > spec["max_triangles"]:
-        raise CatadioptricError(
-            f"scene.max_triangles: the scene would have {n} triangles, more than max_triangles = "
-            f"{spec['max_triangles']}; shorten the street, use fewer windows or line sides, or raise the limit")
+    g.markings(ground, blocks)  # (the builder refuses, as it goes, to exceed max_triangles)
     return g.B.build(name=spec["name"], seed=seed, sun=sun_direction(spec), spec=spec)
