@@ -4,15 +4,21 @@ ground truth + files) and views per minute of a dataset rendered with --workers 
     .venv/bin/python bench/bench_render.py [--scene urban_street] [--views 6] [--size 640x480]
                                            [--line-images core|sampled]
     .venv/bin/python bench/bench_render.py --agreement --size 160x120   # label agreement, 24 views
+    .venv/bin/python bench/bench_render.py --dataset render/urban_street_walk.toml --views 1000 \
+        --run workers:2|dask:1|dask:2 [--out DIR]                        # a whole dataset, end to end
 
-Writes bench/results/render.json (render-sampled.json with --line-images sampled; commit,
-versions, machine: bench/common.py). Standalone (not in bench/run.py: it needs POV-Ray
-and takes about ten minutes on the 2-core machine).
+Writes bench/results/render.json (render-sampled.json with --line-images sampled;
+render-dataset-<views>-<run>.json with --dataset; commit, versions, machine: bench/common.py).
+Every timing comes with the CPU seconds it took (this process and its children: the load of
+other work on a shared machine stretches wall time, not CPU time) and the load average
+before and after. Standalone (not in bench/run.py: it needs POV-Ray and takes about ten
+minutes on the 2-core machine).
 """
 from __future__ import annotations
 
 import argparse
 import os
+import resource
 import sys
 import tempfile
 import time
@@ -24,6 +30,12 @@ sys.path.insert(0, os.path.dirname(__file__))
 from common import metadata, write_json  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def cpu_seconds() -> float:
+    """User + system CPU seconds of this process (all its threads) and of its finished children."""
+    a, b = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return a.ru_utime + a.ru_stime + b.ru_utime + b.ru_stime
 
 
 def _views(spec, n):
@@ -53,11 +65,12 @@ def run(scene_name="urban_street", n_views=6, size=(640, 480), renderers=("mitsu
     from catadioptric.render.tracer import scene_digest
     from catadioptric.scenes import build_scene, scene_rig
 
+    load_before = os.getloadavg()
     t = time.perf_counter()
     scene = build_scene(scene_name)
     t_build = time.perf_counter() - t
     cam = scene_rig(scene.spec, width=size[0], height=size[1])
-    views = _views(scene.spec, n_views)
+    views = _views(scene.spec, max(n_views, 3))
     scene._catadioptric_digest = scene_digest(scene)
     q = load_quality("standard")
     out = {"scene": {"name": scene.name, "triangles": scene.triangle_count, "segments": int(len(scene.segments)),
@@ -71,29 +84,33 @@ def run(scene_name="urban_street", n_views=6, size=(640, 480), renderers=("mitsu
             for i, (name, pose) in enumerate([views[0]] + views[:3]):
                 task = ViewTask(name, os.path.join(tmp, r, f"{i}_{name}"), r, q, cam.to_dict(), pose.to_dict(), 0,
                                 "bench", scene._catadioptric_digest, line_images=line_images)
+                c = cpu_seconds()
                 res = render_view_files(scene, task)
-                rows.append({"view": name, "seconds": res["seconds"], **res["seconds_parts"],
-                             "label_differing_pixels": res["label_differing_pixels"]})
-                print(f"  {r} {name}: {res['seconds']:.2f} s "
+                rows.append({"view": name, "seconds": res["seconds"], "cpu_seconds": cpu_seconds() - c,
+                             **res["seconds_parts"], "label_differing_pixels": res["label_differing_pixels"]})
+                print(f"  {r} {name}: {res['seconds']:.2f} s (cpu {rows[-1]['cpu_seconds']:.2f} s) "
                       + " ".join(f"{k} {v:.2f}" for k, v in res["seconds_parts"].items()), flush=True)
             warm = rows[1:]
             out["per_view"][r] = {"first_view_seconds": rows[0]["seconds"],
                                   "seconds_per_view": float(np.median([x["seconds"] for x in warm])),
+                                  "cpu_seconds_per_view": float(np.median([x["cpu_seconds"] for x in warm])),
                                   "parts_median": {k: float(np.median([x[k] for x in warm]))
                                                    for k in ("render", "trace", "groundtruth", "files")},
                                   "views": rows}
-            for workers in (1, 2):
+            for workers in ((1, 2) if n_views else ()):  # --views 0: the per-view figures only
                 d = os.path.join(tmp, f"ds_{r}_{workers}")
-                t = time.perf_counter()
-                m = render_dataset(scene, views, cam, d, renderer=r, quality=q, workers=workers, progress=False,
-                                   line_images=line_images)
+                t, c = time.perf_counter(), cpu_seconds()
+                m = render_dataset(scene, views[:n_views], cam, d, renderer=r, quality=q, workers=workers,
+                                   progress=False, line_images=line_images)
                 dt = time.perf_counter() - t
                 out["dataset"][f"{r}_workers{workers}"] = {
-                    "views": len(views), "seconds": dt, "views_per_minute": 60.0 * len(views) / dt,
+                    "views": n_views, "seconds": dt, "views_per_minute": 60.0 * n_views / dt,
+                    "cpu_seconds_per_view": (cpu_seconds() - c) / n_views,
                     "label_differing_pixels": m["label_agreement"]["differing_pixels"],
                     "pixels": m["label_agreement"]["pixels"]}
-                print(f"  {r} dataset of {len(views)} views, --workers {workers}: {dt:.1f} s, "
-                      f"{60 * len(views) / dt:.1f} views/min", flush=True)
+                print(f"  {r} dataset of {n_views} views, --workers {workers}: {dt:.1f} s, "
+                      f"{60 * n_views / dt:.1f} views/min", flush=True)
+    out["loadavg_before"], out["loadavg_after"] = list(load_before), list(os.getloadavg())
     return out
 
 
@@ -139,18 +156,121 @@ def agreement(size=(160, 120)) -> dict:
     return {"image": [W, H], "total": total, "views": rows}
 
 
+def dataset(spec_path, n_views, run_how, size=(640, 480), out_dir=None) -> dict:
+    """Render the first ``n_views`` views of a scene spec into a dataset, end to end, with
+    ``run_how`` = ``workers:N`` (local processes) or ``dask:N`` (a Dask LocalCluster of N
+    single-threaded worker processes): views per minute, where the time goes (each view's parts,
+    measured in the worker), CPU seconds, and for Dask the scheduler's overhead from its task
+    stream (per task: the time a worker spent outside our function, and the idle gaps between
+    tasks)."""
+    from catadioptric.render.common import load_quality
+    from catadioptric.render.dataset import render_dataset
+    from catadioptric.scenes import build_scene, scene_rig, spec_path as resolve, views
+
+    kind, _, count = run_how.partition(":")
+    if kind not in ("workers", "dask") or not count.isdigit() or int(count) < 1:
+        raise SystemExit(f"bench_render.py: error: --run: expected workers:N or dask:N, got {run_how!r}")
+    count = int(count)
+    load_before = os.getloadavg()
+    t0 = time.perf_counter()
+    scene = build_scene(resolve(spec_path))
+    cam = scene_rig(scene.spec, width=size[0], height=size[1])
+    vs = views(scene.spec)[:n_views]
+    q = load_quality("standard")
+    tmp = None
+    if out_dir is None:
+        tmp = tempfile.TemporaryDirectory()
+        out_dir = tmp.name
+    stream = None
+    c0 = cpu_seconds()
+    t_render = time.perf_counter()
+    if kind == "workers":
+        m = render_dataset(scene, vs, cam, out_dir, renderer="mitsuba", quality=q, workers=count, progress=False)
+    else:
+        from dask.distributed import Client, LocalCluster, get_task_stream
+
+        with LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+                Client(cluster) as client:
+            t_render = time.perf_counter()
+            with get_task_stream(client) as ts:
+                m = render_dataset(scene, vs, cam, out_dir, renderer="mitsuba", quality=q, scheduler=client,
+                                   progress=False)
+            stream = ts.data
+    wall = time.perf_counter() - t_render
+    cpu = cpu_seconds() - c0
+    total = time.perf_counter() - t0
+    per = m["run"]["view_seconds"]
+    parts = {k: [v[k] for v in per.values()] for k in ("render", "trace", "groundtruth", "files", "total")}
+    out = {"spec": str(spec_path), "run": run_how, "image": list(size), "quality": q["name"], "views": len(vs),
+           "rendered": len(m["run"]["rendered"]), "seconds": wall, "seconds_with_setup": total,
+           "views_per_minute": 60.0 * len(m["run"]["rendered"]) / wall,
+           "cpu_seconds": cpu, "cpu_seconds_per_view": cpu / max(len(m["run"]["rendered"]), 1),
+           "view_seconds_median": {k: float(np.median(v)) for k, v in parts.items()},
+           "view_seconds_sum": {k: float(np.sum(v)) for k, v in parts.items()},
+           # the part of the wall time not spent inside a view (start-up, scheduling, the manifest)
+           "overhead_seconds": wall - float(np.sum(parts["total"])) / count,
+           "label_differing_pixels": m["label_agreement"]["differing_pixels"],
+           "pixels": m["label_agreement"]["pixels"],
+           "loadavg_before": list(load_before), "loadavg_after": list(os.getloadavg())}
+    if stream:
+        out["dask"] = _task_stream_overhead(stream, per)
+    if tmp is not None:
+        tmp.cleanup()
+    return out
+
+
+def _task_stream_overhead(stream, view_seconds) -> dict:
+    """Per task: compute time on the worker minus the view's own seconds (call, (de)serialisation
+    of the task and its result), and the idle gaps between one task's end and the next one's start
+    on each worker thread (the scheduler's round trip), from Dask's task stream."""
+    tasks = []
+    for rec in stream:
+        comp = [s for s in rec.get("startstops", []) if s.get("action") == "compute"]
+        if not comp or not str(rec["key"]).startswith("render-"):
+            continue
+        name = str(rec["key"])[len("render-"):-13]  # render-<view>-<12 hex digits>
+        tasks.append((rec["worker"], rec.get("thread"), comp[0]["start"], comp[-1]["stop"], name))
+    extra = [stop - start - view_seconds[n]["total"] for _, _, start, stop, n in tasks if n in view_seconds]
+    gaps = []
+    by_thread = {}
+    for w, th, start, stop, _ in tasks:
+        by_thread.setdefault((w, th), []).append((start, stop))
+    for runs in by_thread.values():
+        runs.sort()
+        gaps += [b[0] - a[1] for a, b in zip(runs, runs[1:])]
+    return {"tasks": len(tasks), "worker_threads": len(by_thread),
+            "in_task_outside_view_seconds_median": float(np.median(extra)) if extra else None,
+            "gap_between_tasks_seconds_median": float(np.median(gaps)) if gaps else None,
+            "gap_between_tasks_seconds_max": float(np.max(gaps)) if gaps else None,
+            "gap_between_tasks_seconds_sum": float(np.sum(gaps)) if gaps else 0.0}
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scene", default="urban_street", help="scene spec name or file (default urban_street)")
-    ap.add_argument("--views", type=int, default=6, help="views in the dataset runs (default 6)")
+    ap.add_argument("--views", type=int, default=6,
+                    help="views in the dataset runs (default 6; 0: per-view figures only); with --dataset: "
+                         "the first N views of the spec")
     ap.add_argument("--size", default="640x480", help="image size WIDTHxHEIGHT (default 640x480)")
     ap.add_argument("--renderers", default="mitsuba,povray")
     ap.add_argument("--line-images", default="core", choices=["core", "sampled"])
     ap.add_argument("--agreement", action="store_true",
                     help="instead: label agreement of both renderers with the tracer on 24 views "
                          "(bench/results/render-agreement-WxH.json)")
+    ap.add_argument("--dataset", metavar="SPEC",
+                    help="instead: render the first --views views of this scene spec as one dataset "
+                         "(bench/results/render-dataset-<views>-<run>.json)")
+    ap.add_argument("--run", default="workers:2", help="with --dataset: workers:N or dask:N (default workers:2)")
+    ap.add_argument("--out", help="with --dataset: keep the dataset in this folder (default: a temporary one)")
     args = ap.parse_args()
     w, h = (int(x) for x in args.size.split("x"))
+    if args.dataset:
+        res = dataset(args.dataset, args.views, args.run, (w, h), args.out)
+        path = os.path.join(HERE, "results", f"render-dataset-{args.views}-{args.run.replace(':', '')}.json")
+        write_json(path, {"benchmark": "render-dataset", "meta": metadata(), **res})
+        print(f"wrote {os.path.relpath(path)}: {res['views_per_minute']:.1f} views/min, "
+              f"{res['cpu_seconds_per_view']:.2f} CPU s per view, overhead {res['overhead_seconds']:.1f} s")
+        return 0
     if args.agreement:
         res = agreement((w, h))
         path = os.path.join(HERE, "results", f"render-agreement-{w}x{h}.json")

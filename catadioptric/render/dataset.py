@@ -21,6 +21,7 @@ import re
 import subprocess
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -98,7 +99,7 @@ def render_view_files(scene, task: ViewTask) -> dict:
 
     from ..cameras import CatadioptricCamera
     from .groundtruth import ground_truth, groundtruth_json, preview_image, write_npz
-    from .tracer import trace_rays
+    from .tracer import pixel_rays, trace_rays
 
     t_start = time.perf_counter()
     if getattr(scene, "_catadioptric_digest", None) is None:
@@ -113,25 +114,36 @@ def render_view_files(scene, task: ViewTask) -> dict:
     for name in os.listdir(task.folder):
         if name == MARKER or (name.startswith(".") and name.endswith(".tmp")):
             os.unlink(os.path.join(task.folder, name))
-    t0 = time.perf_counter()
-    if task.renderer == "mitsuba":
-        from .mitsuba import render_mitsuba
-
-        if task.threads:
-            import drjit as dr
-
-            dr.set_thread_count(int(task.threads))
-        res = render_mitsuba(scene, cam, pose, task.quality, seed=task.seed)
-    elif task.renderer == "povray":
-        from .povray import render_povray
-
-        res = render_povray(scene, cam, pose, task.quality, threads=task.threads)
-    else:
+    if task.renderer not in RENDERERS:
         raise CatadioptricError(f"renderer: expected one of {list(RENDERERS)}, got {task.renderer!r}")
-    t1 = time.perf_counter()
-    traced = trace_rays(scene, cam, pose)
-    t2 = time.perf_counter()
-    gt = ground_truth(scene, cam, pose, view=task.name, traced=traced, line_images=task.line_images)
+
+    def truth():
+        t = time.perf_counter()
+        traced = trace_rays(scene, cam, pose)
+        t_trace = time.perf_counter()
+        gt = ground_truth(scene, cam, pose, view=task.name, traced=traced, line_images=task.line_images)
+        return traced, gt, t_trace - t, time.perf_counter() - t_trace
+
+    # the ground truth does not depend on the render: unless the view is held to one thread, it
+    # is computed beside the renderer (in a thread; the same arrays either way)
+    pixel_rays(cam)  # the rig's pixel rays, shared by both, computed once
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        beside = pool.submit(truth) if task.threads != 1 else None
+        t0 = time.perf_counter()
+        if task.renderer == "mitsuba":
+            from .mitsuba import render_mitsuba
+
+            if task.threads:
+                import drjit as dr
+
+                dr.set_thread_count(int(task.threads))
+            res = render_mitsuba(scene, cam, pose, task.quality, seed=task.seed)
+        else:
+            from .povray import render_povray
+
+            res = render_povray(scene, cam, pose, task.quality, threads=task.threads)
+        t1 = time.perf_counter()
+        traced, gt, s_trace, s_gt = beside.result() if beside is not None else truth()
     t3 = time.perf_counter()
     diff = res.labels != traced.labels
     agreement = {"renderer": task.renderer, "differing_pixels": int(diff.sum()), "pixels": int(diff.size),
@@ -169,7 +181,7 @@ def render_view_files(scene, task: ViewTask) -> dict:
         "files": {name: hashlib.sha256(data).hexdigest() for name, data in blobs.items()}})
     t4 = time.perf_counter()
     return {"view": task.name, "status": "rendered", "seconds": t4 - t_start,
-            "seconds_parts": {"render": t1 - t0, "trace": t2 - t1, "groundtruth": t3 - t2, "files": t4 - t3},
+            "seconds_parts": {"render": t1 - t0, "trace": s_trace, "groundtruth": s_gt, "files": t4 - t3},
             "label_differing_pixels": agreement["differing_pixels"], "pixels": agreement["pixels"]}
 
 
