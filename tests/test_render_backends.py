@@ -117,8 +117,8 @@ def test_beauty_is_deterministic_and_black_off_the_mirror():
 
 
 def test_povray_errors(tmp_path, monkeypatch):
-    with pytest.raises(RenderError, match=r"povray: rendering bad.pov failed with exit code 1; relevant lines of its "
-                                          r"log .*\n(.|\n)*Parse Error"):
+    with pytest.raises(RenderError, match=r"povray: rendering bad.pov failed with exit code 1 \(the whole log: .*bad.log\); "
+                                          r"relevant lines of its log:\n(.|\n)*Parse Error(.|\n)*its last lines:\n"):
         run_povray(str(tmp_path), "camera { location <0, 0, -1> }\nsphere { <0, 0, 0>, }\n", "bad", ["+W8", "+H8"])
     slow = "camera { location <0,0,-3> look_at 0 }\nsphere { 0, 1 pigment { granite } finish { reflection 0.5 } }\n"
     with pytest.raises(RenderError, match=r"povray: rendering slow.pov did not finish within timeout=0.01 s"):
@@ -126,6 +126,78 @@ def test_povray_errors(tmp_path, monkeypatch):
     monkeypatch.setenv("CATADIOPTRIC_POVRAY", str(tmp_path / "no-such-povray"))
     with pytest.raises(RenderError, match=r"povray: the POV-Ray binary was not found .* apt-get install -y povray"):
         render_povray(street_scene(0), load_rig("sphere", width=W, height=H), street_views("sphere")[0][1])
+
+
+def _children(pid: int) -> list[int]:
+    """Processes whose parent is ``pid`` (Linux /proc)."""
+    out = []
+    for d in os.listdir("/proc"):
+        if d.isdigit():
+            try:
+                with open(f"/proc/{d}/stat") as f:
+                    if int(f.read().rsplit(")", 1)[1].split()[1]) == pid:
+                        out.append(int(d))
+            except (OSError, IndexError, ValueError):
+                pass
+    return out
+
+
+def test_povray_failure_keeps_its_message_not_a_dead_path(monkeypatch, tmp_path):
+    """On failure the temporary folder goes, so the message carries the log's relevant and last lines
+    instead of pointing to a log that no longer exists."""
+    import tempfile
+
+    import catadioptric.render.povray as pov
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    monkeypatch.setattr(pov, "scene_text", lambda *a, **k: "camera { location <0, 0, -1> }\nsphere { <0, 0, 0>, }\n")
+    with pytest.raises(RenderError) as e:
+        render_povray(street_scene(0), load_rig("sphere", width=W, height=H), street_views("sphere")[0][1], "draft")
+    msg = str(e.value)
+    assert "Parse Error" in msg and "its last lines:" in msg and pov.TMP_PREFIX not in msg
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc and PR_SET_PDEATHSIG")
+@pytest.mark.parametrize("how", ["SIGTERM", "SIGKILL"])
+def test_a_killed_render_leaves_no_povray_and_no_folder(tmp_path, how):
+    """Killing the process that renders: POV-Ray dies with it (SIGTERM: on the way out, with the
+    temporary folder; SIGKILL: by PR_SET_PDEATHSIG, and the next render removes the folder left)."""
+    import signal
+    import time
+
+    from catadioptric.render.povray import TMP_PREFIX, remove_stale_workdirs
+
+    code = textwrap.dedent("""
+        from catadioptric.render.povray import render_povray
+        from catadioptric.render.testscene import street_scene, street_views
+        from catadioptric.rigspec import load_rig
+        render_povray(street_scene(0), load_rig("sphere", width=1600, height=1200), street_views("sphere")[0][1], "high")
+    """)
+    p = subprocess.Popen([sys.executable, "-c", code], env={**os.environ, "TMPDIR": str(tmp_path)},
+                         stderr=subprocess.PIPE)
+    t0 = time.time()
+    mine = lambda: [n for n in os.listdir(tmp_path) if n.startswith(f"{TMP_PREFIX}{p.pid}-")]  # noqa: E731
+    # the label pass runs: the work folder exists and POV-Ray is a child (not `povray --version`)
+    while not (mine() and os.listdir(tmp_path / mine()[0]) and _children(p.pid)) and p.poll() is None \
+            and time.time() - t0 < 120:
+        time.sleep(0.05)
+    time.sleep(0.3)
+    kids = _children(p.pid)
+    assert kids and mine(), p.stderr.read().decode()[-2000:]
+    p.send_signal(getattr(signal, how))
+    p.wait(timeout=60)
+    t0 = time.time()
+    while any(os.path.exists(f"/proc/{k}") and open(f"/proc/{k}/stat").read().split()[2] != "Z" for k in kids) \
+            and time.time() - t0 < 30:
+        time.sleep(0.05)
+    assert not [k for k in kids if os.path.exists(f"/proc/{k}") and open(f"/proc/{k}/stat").read().split()[2] != "Z"]
+    left = [n for n in os.listdir(tmp_path) if n.startswith(TMP_PREFIX)]
+    if how == "SIGTERM":
+        assert p.returncode == 128 + signal.SIGTERM and left == []
+    else:
+        assert len(left) == 1 and remove_stale_workdirs(str(tmp_path)) == [str(tmp_path / left[0])]
+        assert os.listdir(tmp_path) == []
 
 
 def test_bad_inputs():

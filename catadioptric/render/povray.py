@@ -23,8 +23,11 @@ from __future__ import annotations
 import functools
 import os
 import shutil
+import signal
 import subprocess
+import sys
 import tempfile
+import threading
 import time
 
 import numpy as np
@@ -34,7 +37,7 @@ from .common import (AMBIENT, LABEL_MIRROR_AGAIN, LABEL_NO_MIRROR, MAX_LABEL, Re
                      load_quality, sky_radiance)
 
 __all__ = ["render_povray", "run_povray", "povray_version", "povray_binary", "scene_text", "mesh2_text",
-           "camera_vectors", "decode_label_pass"]
+           "camera_vectors", "decode_label_pass", "remove_stale_workdirs"]
 
 _HIT = 256  # green step per mirror hit in the 16-bit label pass
 
@@ -185,18 +188,58 @@ def _error_lines(log: str, limit: int = 25) -> str:
     return "\n".join(lines[-limit:])
 
 
-def run_povray(workdir: str, pov_text: str, name: str, args: list[str], timeout: float = 600.0) -> tuple[str, float]:
+def _die_with_parent() -> None:  # pragma: no cover - runs in the child between fork and exec
+    """Linux: the child gets SIGKILL when the thread that started it dies (however it dies: a
+    killed CLI leaves no POV-Ray running)."""
+    import ctypes
+
+    ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+
+
+class _TermAsExit:
+    """While POV-Ray runs in the main thread, SIGTERM (and SIGHUP) raise SystemExit instead of ending
+    the process at once, so that the child is killed and the temporary folder removed on the way
+    out (an application's own handlers are left alone)."""
+
+    SIGNALS = tuple(getattr(signal, n) for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n))
+
+    def __enter__(self):
+        self.old = {}
+        if threading.current_thread() is threading.main_thread():
+            for sig in self.SIGNALS:
+                if signal.getsignal(sig) in (signal.SIG_DFL, None):
+                    self.old[sig] = signal.signal(sig, self._raise)
+        return self
+
+    @staticmethod
+    def _raise(signum, _frame):
+        raise SystemExit(128 + signum)
+
+    def __exit__(self, *exc):
+        for sig, h in self.old.items():
+            signal.signal(sig, h)
+        return False
+
+
+def run_povray(workdir: str, pov_text: str, name: str, args: list[str], timeout: float = 600.0,
+               keep_log: bool = True) -> tuple[str, float]:
     """Write ``name.pov`` in ``workdir``, render it to ``name.png`` with ``args``; return the PNG's
     path and the seconds taken. The log goes to ``name.log``; on failure a :class:`RenderError`
-    shows its relevant lines."""
+    shows its relevant lines and its last lines (and its path when ``keep_log``: the folder stays).
+
+    POV-Ray runs in its own process group and, on Linux, dies with the thread that started it;
+    an exception here (a timeout, Ctrl-C, SIGTERM in the main thread) kills it."""
     exe = povray_binary()
     with open(os.path.join(workdir, name + ".pov"), "w") as f:
         f.write(pov_text)
     cmd = [exe, f"+I{name}.pov", f"+O{name}.png", "-D", "-P", "+V"] + list(args)
     t0 = time.perf_counter()
+    linux = sys.platform.startswith("linux")
     try:
-        proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=timeout,
-                              env={**os.environ, "HOME": workdir})
+        with _TermAsExit():
+            proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=timeout,
+                                  env={**os.environ, "HOME": workdir}, start_new_session=True,
+                                  preexec_fn=_die_with_parent if linux else None)
     except subprocess.TimeoutExpired:
         raise RenderError(f"povray: rendering {name}.pov did not finish within timeout={timeout!r} s "
                           f"(command: {' '.join(cmd)})") from None
@@ -205,9 +248,43 @@ def run_povray(workdir: str, pov_text: str, name: str, args: list[str], timeout:
         f.write(log)
     out = os.path.join(workdir, name + ".png")
     if proc.returncode != 0 or not os.path.exists(out):
-        raise RenderError(f"povray: rendering {name}.pov failed with exit code {proc.returncode}; "
-                          f"relevant lines of its log ({os.path.join(workdir, name + '.log')}):\n{_error_lines(log)}")
+        where = f" (the whole log: {os.path.join(workdir, name + '.log')})" if keep_log else ""
+        tail = "\n".join([ln for ln in log.splitlines() if ln.strip()][-10:])
+        raise RenderError(f"povray: rendering {name}.pov failed with exit code {proc.returncode}{where}; "
+                          f"relevant lines of its log:\n{_error_lines(log)}\nits last lines:\n{tail}")
     return out, time.perf_counter() - t0
+
+
+TMP_PREFIX = "catadioptric-povray-"
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def remove_stale_workdirs(root: str | None = None) -> list[str]:
+    """Remove the temporary folders ``catadioptric-povray-<pid>-*`` of processes that no longer run
+    (a render killed by SIGKILL cannot remove its own); returns the removed paths."""
+    root = root or tempfile.gettempdir()
+    removed = []
+    try:
+        names = os.listdir(root)
+    except OSError:
+        return removed
+    for n in names:
+        if not n.startswith(TMP_PREFIX):
+            continue
+        pid = n[len(TMP_PREFIX):].split("-", 1)[0]
+        if pid.isdigit() and int(pid) != os.getpid() and not _pid_alive(int(pid)):
+            shutil.rmtree(os.path.join(root, n), ignore_errors=True)
+            removed.append(os.path.join(root, n))
+    return removed
 
 
 def decode_label_pass(img16: np.ndarray, known_labels) -> np.ndarray:
@@ -242,12 +319,15 @@ def render_povray(scene, cam, pose, quality="standard", *, beauty: bool = True, 
     if threads:
         common.append(f"+WT{int(threads)}")
     info = {"renderer": "povray", "povray": povray_version(), "quality": q}
-    ctx = tempfile.TemporaryDirectory(prefix="catadioptric-povray-") if keep_dir is None else None
+    if keep_dir is None:
+        remove_stale_workdirs()
+    ctx = tempfile.TemporaryDirectory(prefix=f"{TMP_PREFIX}{os.getpid()}-") if keep_dir is None else None
     workdir = ctx.name if ctx else keep_dir
     os.makedirs(workdir, exist_ok=True)
+    keep = keep_dir is not None
     try:
         png, dt = run_povray(workdir, scene_text(scene, cam, pose, q, labels=True), "labels",
-                             common + ["-A", "+FN16", "File_Gamma=1.0", "Output_Alpha=off"], timeout)
+                             common + ["-A", "+FN16", "File_Gamma=1.0", "Output_Alpha=off"], timeout, keep)
         img = cv2.imread(png, cv2.IMREAD_UNCHANGED)
         if img is None or img.dtype != np.uint16 or img.shape != (H, W, 3):
             raise RenderError(f"povray: the label pass wrote an unexpected image {png!r} "
@@ -258,7 +338,7 @@ def render_povray(scene, cam, pose, quality="standard", *, beauty: bool = True, 
             aa = (["+A" + _f(q["povray_antialias"]), "+AM2", f"+R{q['povray_aa_depth']}"]
                   if q["povray_antialias"] > 0 else ["-A"])
             png, dt = run_povray(workdir, scene_text(scene, cam, pose, q, labels=False), "beauty",
-                                 common + aa + ["+FN8", "File_Gamma=sRGB", "Output_Alpha=off"], timeout)
+                                 common + aa + ["+FN8", "File_Gamma=sRGB", "Output_Alpha=off"], timeout, keep)
             img = cv2.imread(png, cv2.IMREAD_COLOR)
             if img is None or img.shape != (H, W, 3):
                 raise RenderError(f"povray: the beauty pass wrote an unexpected image {png!r}")
