@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from catadioptric.cli import main
-from catadioptric.render.common import decode_labels_png
+from catadioptric.render.common import RenderError, decode_labels_png
 from catadioptric.render.dataset import FILES, render_dataset, view_status
 from catadioptric.render.testscene import street_scene, street_views
 from catadioptric.render.tracer import trace_labels
@@ -188,3 +188,86 @@ def test_command_errors(tmp_path, capsys):
         render_dataset(scene, views, cam, out, renderer="blender")
     with pytest.raises(ValueError, match=r"line_images: expected one of \['core', 'sampled'\], got 'fast'"):
         render_dataset(scene, views, cam, out, line_images="fast")
+
+
+# ---------------------------------------------------------------- integrity (issue 12, item 11)
+def test_view_names_that_are_the_datasets_own_files(tmp_path):
+    scene, views, cam = _setup()
+    for bad in ("manifest.json", "Manifest.JSON", "scene.ply"):
+        with pytest.raises(ValueError, match=r"views\[1\]: expected a view name other than the dataset's own files "
+                                             r"\['manifest.json', 'scene.ply'\] \(in any case\), got " + repr(bad)):
+            render_dataset(scene, [views[0], (bad, views[1][1])], cam, str(tmp_path / "ds"))
+    with pytest.raises(ValueError, match=r"views\[1\]: the view name 'VIEW_00' is used twice \(folder names are compared"):
+        render_dataset(scene, [views[0], ("VIEW_00", views[1][1])], cam, str(tmp_path / "ds"))
+
+
+def test_rerun_repairs_malformed_markers_swapped_files_and_links(reference, tmp_path):
+    """A done.json that is a list or has "files": null, a file replaced by a folder, a view folder
+    replaced by a file or by a link to another view's folder: the rerun redoes those views (it
+    crashed, or wrote one view into another's folder) and the dataset is byte-identical again."""
+    ref, _ = reference
+    scene, views, cam = _setup()
+    out = str(tmp_path / "ds")
+    shutil.copytree(ref, out)
+    with open(os.path.join(out, "view_00", "done.json"), "w") as f:
+        json.dump([1, 2], f)
+    with open(os.path.join(out, "view_01", "done.json")) as f:
+        marker = json.load(f)
+    with open(os.path.join(out, "view_01", "done.json"), "w") as f:
+        json.dump({**marker, "files": None}, f)
+    os.unlink(os.path.join(out, "view_01", "preview.png"))
+    os.mkdir(os.path.join(out, "view_01", "preview.png"))
+    shutil.rmtree(os.path.join(out, "view_02"))
+    os.symlink("view_00", os.path.join(out, "view_02"))
+    m = render_dataset(scene, views, cam, out, renderer="mitsuba", quality="draft", progress=False)
+    assert m["run"]["status_before"] == {"view_00": "broken", "view_01": "broken", "view_02": "broken"}
+    assert not os.path.islink(os.path.join(out, "view_02"))
+    assert _differ(out, ref) == []
+    shutil.rmtree(os.path.join(out, "view_02"))
+    with open(os.path.join(out, "view_02"), "w") as f:
+        f.write("not a folder")
+    with open(os.path.join(out, "view_01", "done.json"), "w") as f:
+        json.dump({**marker, "files": {k: 5 for k in marker["files"]}}, f)
+    m = render_dataset(scene, views, cam, out, renderer="mitsuba", quality="draft", progress=False)
+    assert m["run"]["rendered"] == ["view_01", "view_02"] and _differ(out, ref) == []
+
+
+def test_a_second_run_on_the_same_folder_stops_at_once(reference, tmp_path):
+    from catadioptric.render.dataset import _dataset_lock
+
+    ref, _ = reference
+    scene, views, cam = _setup()
+    out = str(tmp_path / "ds")
+    shutil.copytree(ref, out)
+    with _dataset_lock(out):  # (another open file description: as another process would hold it)
+        with pytest.raises(ValueError, match=r"out_dir: another run is writing the dataset .* \(it holds .*"
+                                             r"\.catadioptric-lock\); wait for it to finish or write to another folder"):
+            render_dataset(scene, views, cam, out, renderer="mitsuba", quality="draft", progress=False)
+    assert _differ(out, ref) == []
+
+
+def test_the_mitsuba_variant_is_in_the_fingerprint(reference, tmp_path, monkeypatch):
+    """Views rendered with another Mitsuba variant (llvm or the scalar fallback) are stale, and a
+    worker running another variant than the fingerprint's refuses the view."""
+    import catadioptric.render.dataset as ds
+
+    ref, m0 = reference
+    scene, views, cam = _setup()
+    out = str(tmp_path / "ds")
+    shutil.copytree(ref, out)
+    real = ds._versions
+    monkeypatch.setattr(ds, "_versions", lambda r: {**real(r), "mitsuba_variant": "scalar_rgb"})
+    with pytest.raises(RenderError, match=r"mitsuba: this worker runs the variant 'llvm_ad_rgb', the dataset's "
+                                          r"fingerprint says 'scalar_rgb'"):
+        render_dataset(scene, views[:1], cam, out, renderer="mitsuba", quality="draft", progress=False)
+    monkeypatch.setattr(ds, "_versions", real)
+    m = render_dataset(scene, views, cam, out, renderer="mitsuba", quality="draft", progress=False)
+    assert m["run"]["status_before"]["view_00"] == "broken" and m["run"]["skipped"] == ["view_01", "view_02"]
+
+
+def test_a_missing_povray_leaves_no_output_folder(tmp_path, monkeypatch):
+    scene, views, cam = _setup()
+    monkeypatch.setenv("CATADIOPTRIC_POVRAY", str(tmp_path / "no-such-povray"))
+    with pytest.raises(RenderError, match=r"povray: the POV-Ray binary was not found"):
+        render_dataset(scene, views, cam, str(tmp_path / "ds"), renderer="povray", progress=False)
+    assert not os.path.exists(tmp_path / "ds")

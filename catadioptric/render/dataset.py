@@ -13,11 +13,13 @@ outputs are byte-identical whichever way they ran.
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
 import platform
 import re
+import shutil
 import subprocess
 import sys
 import time
@@ -38,6 +40,8 @@ FORMAT = "catadioptric-dataset/1"
 FILES = ("beauty.png", "labels.png", "groundtruth.json", "groundtruth.npz", "preview.png")
 MARKER = "done.json"
 RENDERERS = ("mitsuba", "povray")
+MANIFEST = "manifest.json"
+LOCK = ".catadioptric-lock"  # held (flock) by the run writing the dataset
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,127}$")
 
 
@@ -57,6 +61,7 @@ class ViewTask:
     threads: int | None = None
     line_images: str = "core"
     extras: tuple = ()  # optional outputs (catadioptric.render.extras)
+    mitsuba_variant: str | None = None  # the variant of the fingerprint: every worker must run it
 
 
 _sha256 = sha256_file
@@ -64,24 +69,57 @@ _sha256 = sha256_file
 
 def view_status(folder: str, fingerprint: str, extra_files=()) -> str:
     """``done`` (marker matches parameters and every file's checksum), ``stale`` (rendered with
-    other parameters), ``broken`` (marker missing, unreadable or a file differs) or ``missing``."""
-    if not os.path.isdir(folder):
+    other parameters), ``broken`` (marker missing, unreadable or malformed, a file differs or is
+    not a regular file, or the folder is a file or a symbolic link) or ``missing``."""
+    if not os.path.lexists(folder):
         return "missing"
+    if os.path.islink(folder) or not os.path.isdir(folder):
+        return "broken"  # a link could be another view's folder: never written through
     try:
-        with open(os.path.join(folder, MARKER)) as f:
+        with open(os.path.join(folder, MARKER), encoding="utf-8") as f:
             marker = json.load(f)
     except (OSError, ValueError):
         return "broken"
+    if not isinstance(marker, dict):
+        return "broken"
     if marker.get("fingerprint") != fingerprint:
         return "stale"
-    files = marker.get("files", {})
-    if set(files) != set(FILES) | set(extra_files):
+    files = marker.get("files")
+    if not isinstance(files, dict) or set(files) != set(FILES) | set(extra_files):
         return "broken"
     for name, digest in files.items():
         p = os.path.join(folder, name)
-        if not os.path.isfile(p) or _sha256(p) != digest:
+        if not isinstance(digest, str) or os.path.islink(p) or not os.path.isfile(p) or _sha256(p) != digest:
             return "broken"
     return "done"
+
+
+def _remove(path: str) -> None:
+    """Remove whatever is at ``path`` (a file, a link, a folder tree); nothing if nothing is there."""
+    if os.path.islink(path) or os.path.isfile(path):
+        os.unlink(path)
+    elif os.path.isdir(path):
+        shutil.rmtree(path)
+
+
+@contextlib.contextmanager
+def _dataset_lock(out_dir: str):
+    """Hold an exclusive lock on the dataset folder for a whole run (released when the process
+    ends, however it ends): a second run on the same folder stops at once instead of deleting
+    the first one's temporary files."""
+    import fcntl
+
+    path = os.path.join(out_dir, LOCK)
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise CatadioptricError(f"out_dir: another run is writing the dataset {out_dir!r} (it holds {path}); "
+                                    f"wait for it to finish or write to another folder") from None
+        yield
+    finally:
+        os.close(fd)
 
 
 def _view_seed(scene_seed: int, name: str) -> int:
@@ -109,11 +147,14 @@ def render_view_files(scene, task: ViewTask) -> dict:
                                 f"differs from the task's {task.scene_digest[:12]}")
     cam = CatadioptricCamera.from_dict(task.camera)
     pose = RigPose(np.array(task.pose["R"]), np.array(task.pose["t"]))
+    if os.path.islink(task.folder) or (os.path.lexists(task.folder) and not os.path.isdir(task.folder)):
+        _remove(task.folder)  # a link (perhaps to another view's folder) or a file where the folder goes
     os.makedirs(task.folder, exist_ok=True)
-    # a stale marker must not survive a half-written rerun; leftovers of killed writes go too
+    # a stale marker must not survive a half-written rerun; leftovers of killed writes go too (the run
+    # holds the dataset's lock: no other run's temporaries are in flight)
     for name in os.listdir(task.folder):
         if name == MARKER or (name.startswith(".") and name.endswith(".tmp")):
-            os.unlink(os.path.join(task.folder, name))
+            _remove(os.path.join(task.folder, name))
     if task.renderer not in RENDERERS:
         raise CatadioptricError(f"renderer: expected one of {list(RENDERERS)}, got {task.renderer!r}")
 
@@ -131,8 +172,14 @@ def render_view_files(scene, task: ViewTask) -> dict:
         beside = pool.submit(truth) if task.threads != 1 else None
         t0 = time.perf_counter()
         if task.renderer == "mitsuba":
-            from .mitsuba import render_mitsuba
+            from .mitsuba import ENV, mitsuba_variant, render_mitsuba
 
+            if task.mitsuba_variant:
+                os.environ.setdefault(ENV, task.mitsuba_variant)
+                if mitsuba_variant() != task.mitsuba_variant:
+                    raise RenderError(f"mitsuba: this worker runs the variant {mitsuba_variant()!r}, the dataset's "
+                                      f"fingerprint says {task.mitsuba_variant!r}; set {ENV}={task.mitsuba_variant} "
+                                      f"on every worker")
             if task.threads:
                 import drjit as dr
 
@@ -175,7 +222,10 @@ def render_view_files(scene, task: ViewTask) -> dict:
 
         blobs.update(extra_blobs(task.extras, res, traced, pose))
     for name, data in blobs.items():
-        atomic_write_bytes(os.path.join(task.folder, name), data)
+        path = os.path.join(task.folder, name)
+        if os.path.islink(path) or os.path.isdir(path):
+            _remove(path)  # a folder or a link where the file goes
+        atomic_write_bytes(path, data)
     atomic_write_json(os.path.join(task.folder, MARKER), {
         "view": task.name, "fingerprint": task.fingerprint,
         "files": {name: hashlib.sha256(data).hexdigest() for name, data in blobs.items()}})
@@ -249,7 +299,7 @@ def render_dataset(scene, views, cam, out_dir, *, renderer: str = "mitsuba", qua
         raise CatadioptricError(f"workers: expected an integer >= 1, got {workers!r}")
     if line_images not in LINE_IMAGES:
         raise CatadioptricError(f"line_images: expected one of {sorted(LINE_IMAGES)}, got {line_images!r}")
-    from .extras import EXTRA_FILES, check_extras
+    from .extras import EXTRA_FILES, MESH_FILE, check_extras
 
     extras = check_extras(extras, renderer)
     extra_files = [EXTRA_FILES[e] for e in extras if e in EXTRA_FILES]
@@ -258,23 +308,39 @@ def render_dataset(scene, views, cam, out_dir, *, renderer: str = "mitsuba", qua
     if not views:
         raise CatadioptricError("views: expected at least one (name, RigPose) pair, got none")
     names = set()
+    reserved = {MANIFEST, MESH_FILE}
     for i, v in enumerate(views):
         if not (isinstance(v, (tuple, list)) and len(v) == 2 and isinstance(v[1], RigPose)):
             raise CatadioptricError(f"views[{i}]: expected a (name, RigPose) pair, got {v!r}")
         if not (isinstance(v[0], str) and _NAME.match(v[0])):
             raise CatadioptricError(f"views[{i}]: expected a view name of letters, digits, '_', '.', '-' "
                                     f"(a folder name), got {v[0]!r}")
-        if v[0] in names:
-            raise CatadioptricError(f"views[{i}]: the view name {v[0]!r} is used twice")
-        names.add(v[0])
+        if v[0].lower() in reserved:
+            raise CatadioptricError(f"views[{i}]: expected a view name other than the dataset's own files "
+                                    f"{sorted(reserved)} (in any case), got {v[0]!r}")
+        if v[0].lower() in names:
+            raise CatadioptricError(f"views[{i}]: the view name {v[0]!r} is used twice (folder names are "
+                                    f"compared without case)")
+        names.add(v[0].lower())
     digest = scene_digest(scene)
     scene._catadioptric_digest = digest
-    os.makedirs(out_dir, exist_ok=True)
+    # what can fail before the first view fails before the output folder is made
     if renderer == "povray":
         from .povray import povray_binary
 
         povray_binary()  # a clear error now rather than in every worker
     versions = _versions(renderer)  # for mitsuba: probes and sets the variant once, before any worker starts
+    if os.path.lexists(out_dir) and not os.path.isdir(out_dir):
+        raise CatadioptricError(f"out_dir: expected a folder (new or a dataset's), got a file {out_dir!r}")
+    os.makedirs(out_dir, exist_ok=True)
+    with _dataset_lock(out_dir):
+        return _render_locked(scene, views, cam, out_dir, renderer, q, workers, scheduler, rig, progress, line_images,
+                              extras, extra_files, digest, versions)
+
+
+def _render_locked(scene, views, cam, out_dir, renderer, q, workers, scheduler, rig, progress, line_images, extras,
+                   extra_files, digest, versions) -> dict:
+    """The run of :func:`render_dataset` once its arguments are checked and the dataset is locked."""
     threads = None
     if workers > 1 or scheduler is not None:
         threads = max(1, (os.cpu_count() or 1) // workers) if scheduler is None else None
@@ -285,10 +351,12 @@ def render_dataset(scene, views, cam, out_dir, *, renderer: str = "mitsuba", qua
                   "pose": pose.to_dict(), "scene": digest, "seed": seed, "line_images": line_images}
         if extras:  # absent when none, so that the fingerprints of plain datasets do not change
             params["extras"] = list(extras)
+        if renderer == "mitsuba":  # llvm and the scalar fallback differ in their last bits: never mixed
+            params["mitsuba_variant"] = versions["mitsuba_variant"]
         fp = _fingerprint(params)
         folder = os.path.join(out_dir, name)
         tasks.append(ViewTask(name, folder, renderer, q, cam.to_dict(), pose.to_dict(), seed, fp, digest, threads,
-                              line_images, extras))
+                              line_images, extras, versions.get("mitsuba_variant")))
         entries.append({"name": name, "folder": name, "seed": seed, "pose": pose.to_dict(), "fingerprint": fp})
     status = {t.name: view_status(t.folder, t.fingerprint, extra_files) for t in tasks}
     todo = [t for t in tasks if status[t.name] != "done"]
@@ -343,7 +411,7 @@ def render_dataset(scene, views, cam, out_dir, *, renderer: str = "mitsuba", qua
                 "status_before": status, "seconds": time.perf_counter() - t0,
                 "view_seconds": {k: v.get("seconds_parts", {}) | {"total": v["seconds"]} for k, v in results.items()}},
     }
-    atomic_write_json(os.path.join(out_dir, "manifest.json"), manifest)
+    atomic_write_json(os.path.join(out_dir, MANIFEST), manifest)
     return manifest
 
 
