@@ -345,9 +345,9 @@ def map_coefficients(h, exps, qmap, exact):
     other focus of an ellipsoid seen from near its first focus, where every mirror point reflects)
     the sum keeps only the absolute rounding of its terms, while the construction from the target
     itself keeps its relative accuracy."""
-    M = monomials(h, exps)
-    Q = rowdot(M, qmap)
-    size = rowdot(np.abs(M), np.abs(qmap).max(axis=1))  # the terms' size, to within a factor n_out
+    Q = rowdot(monomials(h, exps), qmap)
+    # a bound of the terms' size: a monomial of degree d is at most max|h_i|^d
+    size = np.abs(h).max(axis=1) ** int(exps[0].sum()) * float(np.abs(qmap).max(axis=1).sum())
     weak = np.abs(Q).max(axis=1) < _CANCELLED * size
     if np.any(weak):
         Q[weak] = exact(h[weak])[:, :Q.shape[1]]
