@@ -193,7 +193,7 @@ def random_pixels(cam, rng, n, near=None):
 
 
 # ----------------------------------------------------------------------------- valid-input checks
-def ill_conditioned(cam, p, rel=1e-7, px=1e-3):
+def ill_conditioned(cam, p, rel=1e-7, px=1e-3, w=1):
     """True when moving the point ``p`` by ``rel`` times the mirror's scale moves one of its images by
     more than ``px`` pixels or changes their number (near a caustic, or near a ring of solutions: a
     target on a sphere's axis through the camera, or a target near the axis of a camera within 1e-8
@@ -201,8 +201,8 @@ def ill_conditioned(cam, p, rel=1e-7, px=1e-3):
     is not a wrong answer."""
     rng = np.random.default_rng(0)
     e = rng.normal(size=(4, 3))
-    e *= rel * cam.mirror.scale / np.linalg.norm(e, axis=1, keepdims=True)
-    pr = cam.project(np.concatenate([p[None], p + e]))
+    e *= rel * (cam.mirror.scale if w else np.linalg.norm(p)) / np.linalg.norm(e, axis=1, keepdims=True)
+    pr = (cam.project if w else cam.vanishing_points)(np.concatenate([p[None], p + e]))
     found = np.isfinite(pr.uv[..., 0])  # every reflection point, visible or not
     ref = pr.uv[0][found[0]]
     for j in range(1, 5):
@@ -292,9 +292,12 @@ def units(cam, rng, near):
                         f"{P[bad[:1]].tolist()}")
     S = r1.directions[both]
     v1, v2 = cam.vanishing_points(S), ck.vanishing_points(S)
-    check(np.array_equal(v1.valid, v2.valid), f"vanishing_points valid differs at scale {k:g}")
-    du = np.nanmax(np.abs(v1.uv - v2.uv), initial=0.0)
-    check(du < 1e-7, f"vanishing pixels differ by {du:.3g} px at scale {k:g}")
+    fine = lambda i: not (ill_conditioned(cam, S[i], w=0) or ill_conditioned(ck, S[i], w=0))  # noqa: E731
+    bad = [i for i in np.nonzero(np.any(v1.valid != v2.valid, axis=1))[0] if fine(i)]
+    check(not len(bad), f"vanishing_points valid differs at scale {k:g} for direction {S[bad[:1]].tolist()}")
+    du = np.nanmax(np.abs(v1.uv - v2.uv), axis=(1, 2), initial=0.0)
+    bad = [i for i in np.nonzero(du >= 1e-7)[0] if fine(i)]
+    check(not len(bad), f"vanishing pixels differ by {du.max():.3g} px at scale {k:g} for direction {S[bad[:1]].tolist()}")
 
 
 def magnitudes(cam, rng, near):

@@ -374,3 +374,22 @@ def test_near_the_point_where_the_octic_vanishes():
     oracle = reflection_points(cam, P, 1.0, n_phi=1440, n_z=800)
     assert len(oracle) == 4
     _match(pr.mirror_points, pr.valid, oracle, cam.mirror.scale)
+
+
+def test_three_solutions_near_a_cusp_in_the_plane_of_camera_and_axis():
+    """A one-sheet hyperboloid (in units of 1e-9: a fuzz case), a target in the plane of the camera
+    and the axis whose in-plane reflection point has an off-plane pair next to it: the octic holds
+    the three in one cluster of roots and the in-plane one was lost; the plane's own 1-D problem
+    finds it."""
+    m = cd.QuadricMirror(-1.0084323646800242, 0.0, 8.165464392640903e-22, -2.5973730292871836e-11,
+                         2.5186920007656107e-11)
+    c = np.array([1.882903346225165e-12, -7.3113590722243e-12, -3.596514861751909e-10])
+    cam = cd.CatadioptricCamera.looking_at_mirror(m, cd.PinholeCamera.from_fov(64, 48, 60.0), c,
+                                                  target=(0, 0, 0.5 * (m.z_min + m.z_max)))
+    P = np.array([-1.0495072673979045e-12, 4.0752620129113286e-12, 1.9574756842661715e-10])
+    expected = [np.array([7.136488436470859e-12, -2.7711156600492346e-11, -1.5073384361378626e-12]),  # in the plane
+                np.array([-7.126982437445064e-12, 2.7674244568143476e-11, -3.3214687334838176e-13])]
+    pr = cam.project(P)
+    found = pr.mirror_points[np.isfinite(pr.mirror_points[:, 0])]
+    for r in expected:
+        assert np.min(np.linalg.norm(found - r, axis=-1)) < 1e-8 * m.scale

@@ -88,11 +88,17 @@ def general_resultant(A, B, C, c2, c3, zt, h):
     return resultant_quadratics(*co), E
 
 
-def axial_resultant(A, B, C, c3, zt, h):
-    """``Res_y(G, y^2 + A z^2 + B z - C)`` for a camera on the axis and a target in the plane x = 0:
-    ``(a f - c)^2 + b^2 f``, degree 6 in t."""
-    G = reflection_G(A, B, C, 0.0, c3, zt, h)
+def plane_resultant(A, B, C, c2, c3, zt, h):
+    """``Res_y(G, y^2 + A z^2 + B z - C)``: the reflection points in the plane x = 0 (which holds
+    the camera at ``(0, c2, c3)`` and the axis) of targets in that plane, ``(a f - c)^2 + b^2 f``
+    with ``G = a y^2 + b y + c`` and ``y^2 = -f`` on the mirror."""
+    G = reflection_G(A, B, C, c2, c3, zt, h)
     a, b, c = (bv.y_coefficient(G, k, 5) for k in (2, 1, 0))
     f = np.broadcast_to(circle_f(A, B, C, zt), a.shape[:-1] + (3,))
     afc = polysub(polymul(a, f), c)
     return polyadd(polymul(afc, afc), polymul(polymul(b, b), f))
+
+
+def axial_resultant(A, B, C, c3, zt, h):
+    """:func:`plane_resultant` for a camera on the axis (every target is rotated into x = 0): degree 6 in t."""
+    return plane_resultant(A, B, C, 0.0, c3, zt, h)

@@ -21,7 +21,8 @@ import numpy as np
 
 from .._numeric import rowdot
 from . import bivariate as bv
-from .constraints import coplanarity, general_resultant, reflected_yz, reflection_G, resultant_quadratic_linear
+from .constraints import (coplanarity, general_resultant, plane_resultant, reflected_yz, reflection_G,
+                          resultant_quadratic_linear)
 from .polynomial import deflate_linear, polyval, roots_in_unit_interval
 from .reflection import ReflectionSolver, fit_homogeneous_map, map_coefficients, rotation_to_yz
 
@@ -30,6 +31,9 @@ _SCREEN = 1e-5
 # which cancels for targets near the plane of the camera and the axis and for cameras near the axis);
 # such branches are kept as candidates with x = 0 when negative
 _NEAR_ZERO_X = 0.05
+# targets this close to the plane of the camera and the axis (|p1| relative to |(p2, p3, w)|) also get
+# the reflection points of the 1-D problem in that plane as candidates
+_NEAR_PLANE = 1e-3
 
 
 def quad_roots(a, b, c):
@@ -156,7 +160,32 @@ class GeneralSolver(ReflectionSolver):
             o, r = self._e1_candidates(np.nonzero(e1)[0])
             owners.append(o)
             pts.append(r)
+        o, r = self._plane_candidates(h, ~e1)
+        owners.append(o)
+        pts.append(r)
         return np.concatenate(owners), np.concatenate(pts)
+
+    def _plane_candidates(self, h, ok):
+        """Targets in or near the plane x = 0 of the camera and the axis: their reflection points in
+        that plane, from the 1-D problem there (``Res_y(G, y^2 - rho^2)``). Next to a solution off the
+        plane pair (a cusp of the caustic) the octic holds the three in one cluster of roots, too
+        poor to back-substitute; in the plane the solution is a simple root. Near the plane the
+        in-plane solutions are starting points for the polish."""
+        idx = np.nonzero(ok & (np.abs(h[:, 0]) <= _NEAR_PLANE * np.abs(h[:, 1:]).max(axis=1)))[0]
+        if not len(idx):
+            return np.zeros(0, dtype=np.intp), np.zeros((0, 3))
+        hp = h[idx].copy()
+        hp[:, 0] = 0.0
+        R = plane_resultant(self.A, self.B, self.C, self.c2, self.c3, self.zt, hp)
+        ridx, t = roots_in_unit_interval(R)
+        z = self.zt[0] + self.zt[1] * t
+        rho2 = self.C - self.A * z * z - self.B * z
+        G = rowdot(hp[ridx], self._gmap).reshape(-1, 3, 5)
+        y1, y2 = quad_roots(polyval(G[:, 0], t), polyval(G[:, 1], t), polyval(G[:, 2], t))
+        ys = np.stack([y1, y2], axis=-1)
+        near = np.isfinite(ys) & (np.abs(ys**2 - rho2[:, None]) <= _NEAR_ZERO_X * np.maximum(np.abs(rho2)[:, None], ys**2))
+        kk = np.nonzero(near)
+        return idx[ridx[kk[0]]], np.stack([np.zeros(len(kk[0])), ys[kk], z[kk[0]]], axis=-1)
 
     def _e1_candidates(self, idx):
         """Directions along +-e1: the reflected ray is along x, so d2 = d3 = 0 (target-free)."""
