@@ -78,7 +78,8 @@ def run_geometry_demo(out_dir: str, rig: str = "hyperboloid_9pct") -> dict:
 def run_main_job(out_dir: str, *, renderer: str = "mitsuba", scene: str = "urban_street", noise: float = 2.0,
                  resolution: str | None = None, quality: str = "standard") -> int:
     """The main job: render the paper's relative-pose setting (two views of an urban street seen
-    by a non-central catadioptric camera) and validate the relative rotation from vanishing points."""
+    by a non-central catadioptric camera) and validate the relative pose (rotation and metric
+    translation) from the lines of the first two views (exit code 3 if the answer is ambiguous)."""
     from .cli import main
 
     data = os.path.join(out_dir, f"{scene}_{renderer}")
@@ -88,14 +89,14 @@ def run_main_job(out_dir: str, *, renderer: str = "mitsuba", scene: str = "urban
     code = main(argv)
     if code:
         return code
-    report = os.path.join(out_dir, "relative_rotation")
-    return main(["validate", "relative-rotation", data, "--out", report, "--noise", str(noise)]) or 0
+    report = os.path.join(out_dir, "relative_pose")
+    return main(["validate", "relative-pose", data, "--out", report, "--noise", str(noise)]) or 0
 
 
 def register(sub) -> None:
     from .cliargs import RIG_HELP, nonnegative_float
 
-    d = sub.add_parser("demo", help="the main job: render an image pair and validate the relative rotation "
+    d = sub.add_parser("demo", help="the main job: render an image pair and validate the relative pose "
                                     "(--geometry: the geometry demo only)")
     d.add_argument("--out", default="out/demo", help="output folder (default: out/demo)")
     d.add_argument("--renderer", default="mitsuba", choices=["mitsuba", "povray"], help="renderer (default mitsuba)")

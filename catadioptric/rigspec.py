@@ -217,6 +217,18 @@ class SpecTable:
         return self._store(key, v)
 
     # ------------------------------------------------------------------ lists
+    def strings(self, key: str, default=REQUIRED, *, choices=None) -> list[str] | None:
+        """A non-empty list of strings (each among ``choices`` when given)."""
+        what = "a non-empty list of strings" + ("" if choices is None else " among " + ", ".join(map(repr, choices)))
+        v, given = self._fetch(key, default, what)
+        if v is None:
+            return None
+        ok = isinstance(v, (list, tuple)) and len(v) >= 1 and all(isinstance(x, str) for x in v)
+        ok = ok and (choices is None or all(x in choices for x in v))
+        if not ok:
+            self._fail(key, what, v)
+        return self._store(key, list(v))
+
     def numbers(self, key: str, default=REQUIRED, *, length=None, min_length=1, min=None, max=None,
                 min_open=False, max_open=False, positive=False, nonnegative=False,
                 what: str | None = None) -> list[float] | None:

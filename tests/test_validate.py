@@ -1,5 +1,5 @@
-"""The relative-rotation experiment end to end: render a pair with Mitsuba, fit the families of
-parallel lines in both views, recover the rotation between the views."""
+"""The relative-pose experiment end to end on rendered views: line pixels from the labels, one
+pair from the command line (report, exit codes), the benchmark at its CI size; noise sweeps."""
 import json
 import os
 
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from catadioptric.cli import main
-from catadioptric.validate import relative_rotation as rr
-from catadioptric.validate.views import line_pixels, load_dataset
+from catadioptric.dataset import Dataset
+from catadioptric.validate.observations import curve_pixels, line_pixels, ridge_pixels
 
 
 @pytest.fixture(scope="module")
@@ -18,47 +18,84 @@ def pair(tmp_path_factory):
     return out
 
 
-def test_relative_rotation_from_a_rendered_pair(pair, tmp_path):
+def test_curve_pixels_lie_on_the_exact_curve_where_the_label_shows_the_line(pair):
+    v = Dataset(pair)[0]
+    lp = line_pixels(v, pixels="curve", min_pixels=10)
+    assert len(lp.uv) >= 5 and set(lp.counts) == set(lp.family)
+    curves = v["curves"]
+    for uv, seg, lab in zip(lp.uv[:5], lp.segment, lp.label):
+        exact = np.concatenate([c["uv"] for c in curves if c["segment"] == seg])
+        d = np.min(np.linalg.norm(uv[:, None, :] - exact[None], axis=-1), axis=1)
+        assert d.max() < 1e-9  # vertices of the exact curve, not interpolated between them
+        steps = np.linalg.norm(np.diff(uv, axis=0), axis=1)
+        assert np.median(steps) < 1.5  # about one point per pixel of arc length
+        near = np.rint(uv).astype(int)
+        labels = v["labels"]
+        win = [labels[max(y - 1, 0):y + 2, max(x - 1, 0):x + 2] for x, y in near]
+        assert all((w == lab).any() for w in win)  # the label image shows the line there
+    # the ridge pixels are integer pixel centres carrying the label
+    lab = lp.label[0]
+    r = ridge_pixels(v["labels"], lab)
+    assert len(r) > 0 and np.all(v["labels"][r[:, 1].astype(int), r[:, 0].astype(int)] == lab)
+    assert len(curve_pixels(curves, v["labels"], lp.segment[0], lab)) == len(
+        line_pixels(v, pixels="curve", min_pixels=10).uv[0])
+
+
+def test_relative_pose_of_a_rendered_pair(pair, tmp_path):
     rep = str(tmp_path / "report")
-    assert main(["validate", "relative-rotation", pair, "--out", rep, "--noise", "1.0"]) == 0
+    code = main(["validate", "relative-pose", pair, "--views", "A", "B", "--out", rep, "--noise", "0", "1",
+                 "--min-pixels", "15"])
     res = json.load(open(os.path.join(rep, "report.json")))
-    used = [f for f in res["families"] if f["used"]]
-    assert len(used) >= 3
-    assert res["angle_error_deg"] < 2.0  # the rotation between the views, from vanishing points
-    R = np.array(res["R"])
-    assert np.allclose(R @ R.T, np.eye(3), atol=1e-12)
-    assert os.path.getsize(os.path.join(rep, "vanishing_points.png")) > 10_000
+    assert code == (3 if any(d["ambiguous"] for d in res["draws"]) else 0)
+    assert res["views"] == ["A", "B"] and len(res["draws"]) == 2
+    R_gt = np.array(res["R_gt"])
+    assert np.allclose(R_gt @ R_gt.T, np.eye(3), atol=1e-12)
+    d0 = res["draws"][0]
+    for key in ("seed", "R", "t", "ambiguous", "rotation_error_deg", "translation_error_m",
+                "translation_direction_error_deg", "families_used", "lines_used", "central"):
+        assert key in d0
+    assert not d0["ambiguous"] and d0["rotation_error_deg"] < 0.05  # no added noise: exact pixels
+    assert d0["families_used"] >= 3 and d0["lines_used"] >= 5
+    assert os.path.getsize(os.path.join(rep, "lines.png")) > 10_000
     assert "Reproduce:" in open(os.path.join(rep, "report.md")).read()
 
 
-def test_line_pixels_are_the_ridge_of_each_line_band(pair):
-    v = load_dataset(pair)[0]
-    labels = [ln["label"] for ln in v.lines if ln["label"] > 0]
-    counts = [(len(line_pixels(v, l, ridge=False)), len(line_pixels(v, l))) for l in labels]
-    full, ridge = np.array(counts).T
-    assert np.all(ridge <= full) and np.all((ridge > 0) == (full > 0))
-    # every ridge pixel carries the line's label
-    lab = labels[int(np.argmax(full))]
-    uv = line_pixels(v, lab).astype(int)
-    assert np.all(v.labels[uv[:, 1], uv[:, 0]] == lab)
+def test_relative_pose_errors_name_the_flag(pair, tmp_path, capsys):
+    out = str(tmp_path / "r")
+    assert main(["validate", "relative-pose", pair, "--views", "A", "nope", "--out", out]) == 2
+    assert "views: expected names among ['A', 'B'], got unknown ['nope']" in capsys.readouterr().err
+    assert main(["validate", "relative-pose", pair, "--out", out, "--min-pixels", "90", "--max-pixels", "60"]) == 2
+    assert "--min-pixels: expected at most --max-pixels (60), got 90" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["validate", "relative-pose", pair, "--out", out, "--noise", "-1"])
+    assert "--noise: expected" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["validate", "relative-pose", pair, "--out", out, "--draws", "0"])
+    assert "--draws: expected a positive integer, got '0'" in capsys.readouterr().err
+    assert main(["validate", "relative-pose", str(tmp_path / "none"), "--out", out]) == 2
+    assert "DATASET:" in capsys.readouterr().err
 
 
-def test_central_family_direction_of_exact_lines():
-    """Three parallel lines seen by an exactly central rig: the planes meet along the direction."""
-    from catadioptric.rigs import preset
-    from catadioptric.unified import unified_from_central
-
-    cam = preset("hyperboloid_central")
-    uni = unified_from_central(cam)
-    s = np.array([0.3, -0.2, 0.9])
-    s /= np.linalg.norm(s)
-    sets = []
-    for q in ([1.0, 0.5, 0.0], [-0.8, 1.2, 0.3], [0.4, -1.5, -0.2]):
-        lam = np.linspace(-2, 2, 400)
-        pr = cam.project(np.array(q) + lam[:, None] * s)
-        sets.append(pr.uv[pr.valid & pr.in_image])
-    d, sig = rr.central_family_direction(uni, sets)
-    assert min(np.linalg.norm(d - s), np.linalg.norm(d + s)) < 1e-9 and sig < 1e-9
+def test_benchmark_at_its_ci_size(tmp_path):
+    """The benchmark of validate/relative_pose.toml at its [quick] size, rendered and evaluated for real;
+    a rerun resumes (nothing rendered or evaluated again)."""
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    spec = os.path.join(root, "validate", "relative_pose.toml")
+    out = str(tmp_path / "bench")
+    assert main(["validate", "benchmark", "--spec", spec, "--quick", "--out", out, "--no-progress"]) == 0
+    rep = json.load(open(os.path.join(out, "report.json")))
+    assert set(rep["aggregate"]) == set(rep["spec"]["quick"]["configs"])
+    for name, a in rep["aggregate"].items():
+        assert a["pairs"] == 1
+        for e in a["noise"].values():
+            ex = e["exact"]
+            assert ex["draws"] == 1 and ex["failed"] == 0 and ex["over_10deg_unflagged"] == 0
+    for png in ("rotation.png", "translation.png"):
+        assert os.path.getsize(os.path.join(out, png)) > 5_000
+    results = sorted(os.listdir(os.path.join(out, "results")))
+    stamp = {r: os.path.getmtime(os.path.join(out, "results", r, "p00.json")) for r in results}
+    assert main(["validate", "benchmark", "--spec", spec, "--quick", "--out", out, "--no-progress"]) == 0
+    assert stamp == {r: os.path.getmtime(os.path.join(out, "results", r, "p00.json")) for r in results}
 
 
 def test_noise_sweep_grows_with_noise(tmp_path):

@@ -63,6 +63,8 @@ def fit_interpretation_plane(cam, uv, *, f_scale: float = 1.0, ransac: bool = Tr
     f_scale, pixel_sigma, inlier_threshold = _check_options("linear", f_scale, pixel_sigma, inlier_threshold)
     rng = _rng(seed)
     px, valid = _pixels(cam, uv)
+    # a pixel at the edge of the mirror's image has no ray derivative (a neighbour misses the mirror)
+    valid = valid & np.all(np.isfinite(px.Jd), axis=(-2, -1)) & np.all(np.isfinite(px.d), axis=-1)
     if int(valid.sum()) < 3:
         raise CatadioptricError(f"uv: expected at least 3 pixels that see the world, got {int(valid.sum())}")
     d, Jd = px.d[valid], px.Jd[valid]

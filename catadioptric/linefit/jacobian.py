@@ -8,7 +8,7 @@ from ..cameras import CatadioptricCamera
 
 
 # --------------------------------------------------------------------------- projection with derivatives
-def project_with_jacobian(cam: CatadioptricCamera, points, uv_ref):
+def project_with_jacobian(cam: CatadioptricCamera, points, uv_ref, *, jacobian: bool = True):
     """The image of each point nearest a reference pixel, with its derivative.
 
     ``points (N, 3)`` in M, ``uv_ref (N, 2)``. Returns ``uv (N, 2)``, ``G (N, 2, 3)`` (d uv / d point)
@@ -21,7 +21,7 @@ def project_with_jacobian(cam: CatadioptricCamera, points, uv_ref):
     ``|r - c| + |r - p|`` stationary on the mirror, so ``(r, mu)`` solves
     ``w + u + mu grad Omega = 0``, ``Omega(r) = 0`` (``w``, ``u`` unit vectors from ``c`` and
     from ``p`` to ``r``); differentiating that system in ``p`` gives ``dr/dp``, and the
-    pinhole gives ``d uv / dr``.
+    pinhole gives ``d uv / dr``. With ``jacobian=False``, ``G`` is not computed (NaN).
     """
     P = as_float_array(points, "points", 3, finite=False).reshape(-1, 3)
     ref = as_float_array(uv_ref, "uv_ref", 2).reshape(-1, 2)
@@ -44,7 +44,7 @@ def project_with_jacobian(cam: CatadioptricCamera, points, uv_ref):
     ok = np.isfinite(key[idx, k]) & finite
     uv[ok] = pr.uv[idx[ok], k[ok]]
     vis[ok] = pr.valid[idx[ok], k[ok]]
-    if np.any(ok):
+    if jacobian and np.any(ok):
         r = pr.mirror_points[idx[ok], k[ok]]
         G[ok] = _uv_jacobian(cam, r, P[ok])
     return uv, G, vis
@@ -66,17 +66,26 @@ def _uv_jacobian(cam: CatadioptricCamera, r, p):
     Pw = (eye - w[:, :, None] * w[:, None, :]) / la[:, None, None]
     Pu = (eye - u[:, :, None] * u[:, None, :]) / lb[:, None, None]
     hess_omega = 2.0 * np.diag([1.0, 1.0, m.A])
+    # the bordered system [[M, g], [g^T, 0]] [dr/dp; dmu/dp] = [Pu; 0], M = Pw + Pu + mu Hess(Omega),
+    # solved by block elimination with the closed-form inverse of the symmetric 3 x 3 M (batched,
+    # elementwise: far faster than a batched LAPACK solve of tiny systems)
+    M = Pw + Pu + mu[:, None, None] * hess_omega
+    Mi = _inverse3(M)
+    Mg = np.einsum("nij,nj->ni", Mi, g)
+    gMg = np.sum(g * Mg, axis=-1)
+    MiPu = Mi @ Pu
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dr_dp = MiPu - Mg[:, :, None] * (np.einsum("ni,nij->nj", g, MiPu) / gMg[:, None])[:, None, :]
+    bad = ~np.all(np.isfinite(dr_dp), axis=(1, 2))
+    if bad.any():  # M singular where the bordered system is not: solve that one directly
+        K = np.zeros((int(bad.sum()), 4, 4))
+        K[:, :3, :3] = M[bad]
+        K[:, :3, 3] = g[bad]
+        K[:, 3, :3] = g[bad]
+        rhs = np.zeros((int(bad.sum()), 4, 3))
+        rhs[:, :3, :] = Pu[bad]
+        dr_dp[bad] = (np.linalg.pinv(K) @ rhs)[:, :3, :]
     n = len(r)
-    K = np.zeros((n, 4, 4))
-    K[:, :3, :3] = Pw + Pu + mu[:, None, None] * hess_omega
-    K[:, :3, 3] = g
-    K[:, 3, :3] = g
-    rhs = np.zeros((n, 4, 3))
-    rhs[:, :3, :] = Pu  # d(grad F)/dp = -Pu, moved to the right-hand side
-    try:
-        dr_dp = np.linalg.solve(K, rhs)[:, :3, :]
-    except np.linalg.LinAlgError:  # a degenerate point somewhere in the batch: pseudo-inverse
-        dr_dp = (np.linalg.pinv(K) @ rhs)[:, :3, :]
     R = cam.R_cam_from_mirror
     X = a @ R.T
     Kp = cam.pinhole.K
@@ -90,3 +99,14 @@ def _uv_jacobian(cam: CatadioptricCamera, r, p):
     return duv_dX @ R @ dr_dp
 
 
+def _inverse3(M):
+    """Inverses of 3 x 3 matrices ``M (n, 3, 3)`` by cofactors (NaN where singular)."""
+    a, b, c = M[:, 0, 0], M[:, 0, 1], M[:, 0, 2]
+    d, e, f = M[:, 1, 0], M[:, 1, 1], M[:, 1, 2]
+    g, h, i = M[:, 2, 0], M[:, 2, 1], M[:, 2, 2]
+    C = np.stack([np.stack([e * i - f * h, c * h - b * i, b * f - c * e], -1),
+                  np.stack([f * g - d * i, a * i - c * g, c * d - a * f], -1),
+                  np.stack([d * h - e * g, b * g - a * h, a * e - b * d], -1)], -2)
+    det = a * C[:, 0, 0] + b * C[:, 1, 0] + c * C[:, 2, 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return C / det[:, None, None]

@@ -31,6 +31,7 @@ from .rotation import exp_rotation, skew
 __all__ = ["TwoViewFit", "refine_two_view"]
 
 _RAYLEIGH_MEDIAN = np.sqrt(2.0 * np.log(2.0))  # median of |e| for a 2-D Gaussian of unit sigma
+_MU_MAX = 1e3  # depths beyond 89.94 degrees from a line's perpendicular are at its vanishing points
 
 
 @dataclass
@@ -67,25 +68,38 @@ def _basis(s):
 
 
 class _Problem:
-    def __init__(self, cam_a, cam_b, dirs0, points0, line_family, uv, owner, view, x0):
+    """The unknowns ``y = [w (3), tau (2), sigma (1), (a_f, b_f) per family, (alpha_l, rho~_l) per
+    line]`` and one depth ``mu_j`` per pixel (module docstring). The translation between the two
+    views' centres is ``t'' = exp(sigma) t^`` (``t^ = unit(t0^ + tau_1 f1 + tau_2 f2)``), so that
+    ``t = t'' - R c_A + c_B``; a line's inverse distance is ``rho = rho~ exp(-sigma)``. Scaling the
+    whole scene (baseline and every line together) is then a move of ``sigma`` alone: the
+    direction a near-central rig barely sees is a straight line in these coordinates, not the
+    curved valley of a metric ``t`` against inverse distances."""
+
+    def __init__(self, cam_a, cam_b, dirs0, points0, line_family, uv, owner, view, centres, R0, t0):
         self.cams = (cam_a, cam_b)
+        self.ca, self.cb = (np.asarray(c, dtype=float) for c in centres)
         self.s0 = dirs0 / np.linalg.norm(dirs0, axis=1, keepdims=True)
         self.e1, self.e2 = _basis(self.s0)
         self.F, self.L = len(dirs0), len(points0)
         self.fam = np.asarray(line_family, dtype=int)
         self.uv, self.owner, self.view = uv, owner, view
         self.N = len(uv)
-        self.x0 = x0
         self.ny = 6 + 2 * self.F + 2 * self.L
-        # line charts from the starting points
+        tt = R0 @ self.ca + np.asarray(t0, dtype=float) - self.cb
+        ntt = max(float(np.linalg.norm(tt)), 1e-3 * cam_a.mirror.scale)
+        self.that0 = tt / ntt if np.linalg.norm(tt) > 0 else np.array([1.0, 0.0, 0.0])
+        self.f1, self.f2 = _basis(self.that0)
+        self.sigma0 = float(np.log(ntt))
+        # line charts from the starting points (inverse distances in units of the baseline)
         s_l = self.s0[self.fam]
-        v = points0 - x0
+        v = points0 - self.ca
         foot = v - np.sum(v * s_l, axis=1, keepdims=True) * s_l
         dist = np.maximum(np.linalg.norm(foot, axis=1), 1e-9)
         e1l, e2l = self.e1[self.fam], self.e2[self.fam]
         self.alpha0 = np.arctan2(np.sum(foot * e2l, 1), np.sum(foot * e1l, 1))
-        self.rho0 = 1.0 / dist
-        self.rho_min = 1e-6 / cam_a.mirror.scale
+        self.rho0 = ntt / dist
+        self.rho_min = 1e-6
         f = self.fam[owner]
         self.cols = np.empty((self.N, 10), dtype=np.int64)
         self.cols[:, :6] = np.arange(6)
@@ -94,9 +108,10 @@ class _Problem:
         self.cols[:, 8] = 6 + 2 * self.F + 2 * owner
         self.cols[:, 9] = 7 + 2 * self.F + 2 * owner
 
-    def start(self, points_at):
-        """Parameters ``y`` (zeros for w, the directions' tangent coordinates) and depths ``mu``."""
+    def start(self):
+        """Parameters ``y`` at the start (the rotation is carried separately)."""
         y = np.zeros(self.ny)
+        y[5] = self.sigma0
         y[6 + 2 * self.F::2] = self.alpha0
         y[7 + 2 * self.F::2] = np.maximum(self.rho0, 2 * self.rho_min)
         return y
@@ -110,28 +125,37 @@ class _Problem:
         rho = y[7 + 2 * self.F::2]
         e1l, e2l = self.e1[self.fam], self.e2[self.fam]
         u = np.cos(al)[:, None] * e1l + np.sin(al)[:, None] * e2l
-        return s, nv, al, rho, u
+        tv = self.that0 + y[3] * self.f1 + y[4] * self.f2
+        ntv = np.linalg.norm(tv)
+        return s, nv, al, rho, u, tv / ntv, ntv, float(np.exp(y[5]))
+
+    def translation(self, R, y) -> np.ndarray:
+        """``t`` of ``x_B = R x_A + t``."""
+        that, _, k = self.parts(y)[5:]
+        return k * that - R @ self.ca + self.cb
 
     def points(self, y, mu):
-        s, _, _, rho, u = self.parts(y)
+        """The points the pixels see, in A."""
+        s, _, _, rho, u, _, _, k = self.parts(y)
         f, l = self.fam[self.owner], self.owner
-        return self.x0 + (u[l] + mu[:, None] * s[f]) / rho[l, None]
+        return self.ca + k * (u[l] + mu[:, None] * s[f]) / rho[l, None]
 
-    def evaluate(self, R, t, y, mu, jac=True):
+    def evaluate(self, R, y, mu, jac=True):
         """Residuals ``e (N, 2)`` (NaN where a point has no image), and if ``jac`` the local
         Jacobian ``A (N, 2, 10)`` (columns ``self.cols``) and the depth column ``b (N, 2)``."""
-        s, nv, al, rho, u = self.parts(y)
+        s, nv, al, rho, u, that, ntv, k = self.parts(y)
         f, l = self.fam[self.owner], self.owner
-        P = self.x0 + (u[l] + mu[:, None] * s[f]) / rho[l, None]
+        V = (u[l] + mu[:, None] * s[f]) / rho[l, None]  # P - c_A = k V
+        P = self.ca + k * V
+        inb = self.view == 1
+        X = P.copy()
+        X[inb] = k * (V[inb] @ R.T + that) + self.cb
         e = np.full((self.N, 2), np.nan)
         G = np.full((self.N, 2, 3), np.nan)
-        X = P.copy()
-        inb = self.view == 1
-        X[inb] = P[inb] @ R.T + t
         for v in (0, 1):
             m = self.view == v
             if m.any():
-                uvp, Gv, _ = project_with_jacobian(self.cams[v], X[m], self.uv[m])
+                uvp, Gv, _ = project_with_jacobian(self.cams[v], X[m], self.uv[m], jacobian=jac)
                 e[m] = uvp - self.uv[m]
                 G[m] = Gv
         if not jac:
@@ -143,33 +167,60 @@ class _Problem:
         ds_da = (e1f - sf * np.sum(sf * e1f, 1, keepdims=True)) / nvf[:, None]
         ds_db = (e2f - sf * np.sum(sf * e2f, 1, keepdims=True)) / nvf[:, None]
         du = -np.sin(al[l])[:, None] * self.e1[f] + np.cos(al[l])[:, None] * self.e2[f]
-        dP = np.empty((self.N, 3, 5))  # a, b, alpha, rho, mu
-        dP[:, :, 0] = (mu / rj)[:, None] * ds_da
-        dP[:, :, 1] = (mu / rj)[:, None] * ds_db
-        dP[:, :, 2] = du / rj[:, None]
-        dP[:, :, 3] = -(P - self.x0) / rj[:, None]
-        dP[:, :, 4] = sf / rj[:, None]
+        dP = np.empty((self.N, 3, 6))  # sigma, a, b, alpha, rho~, mu (in A)
+        dP[:, :, 0] = k * V
+        dP[:, :, 1] = (k * mu / rj)[:, None] * ds_da
+        dP[:, :, 2] = (k * mu / rj)[:, None] * ds_db
+        dP[:, :, 3] = k * du / rj[:, None]
+        dP[:, :, 4] = -k * V / rj[:, None]
+        dP[:, :, 5] = k * sf / rj[:, None]
         GB = G.copy()
         GB[inb] = G[inb] @ R  # d uv / d P for view B goes through R
         A = np.zeros((self.N, 2, 10))
-        A[inb, :, 0:3] = G[inb] @ (-skew(P[inb] @ R.T))
-        A[inb, :, 3:6] = G[inb]
-        J5 = GB @ dP
-        A[:, :, 6:10] = J5[:, :, :4]
-        b = J5[:, :, 4]
+        J6 = GB @ dP
+        A[:, :, 5] = J6[:, :, 0]
+        A[:, :, 6:10] = J6[:, :, 1:5]
+        b = J6[:, :, 5]
+        if inb.any():
+            RV = V[inb] @ R.T
+            A[inb, :, 0:3] = k * (G[inb] @ (-skew(RV)))
+            dthat = np.stack([(self.f1 - that * (that @ self.f1)) / ntv, (self.f2 - that * (that @ self.f2)) / ntv],
+                             axis=0)  # (2, 3)
+            A[inb, :, 3:5] = k * np.einsum("nij,kj->nik", G[inb], dthat)
+            A[inb, :, 5] += k * np.einsum("nij,j->ni", G[inb], that)  # the baseline scales with sigma too
         bad = ~np.isfinite(e).all(1) | ~np.isfinite(A).all((1, 2)) | ~np.isfinite(b).all(1)
         A[bad] = 0.0
         b[bad] = 0.0
         return e, A, b
 
-    def apply(self, R, t, y, mu, dy, dmu):
+    def apply(self, R, y, mu, dy, dmu):
+        """The state after a step (``dy[:3]`` rotates ``R`` on the left; the rest adds)."""
+        # a depth moves at most by its own size plus one (mu is the tangent of the angle at c_A between
+        # the line's perpendicular and the point) and stays within 89.94 degrees of the perpendicular:
+        # an outlier pixel's nearest curve point can lie at a vanishing point, and its depth must
+        # not run off to infinity on the way there
+        cap = np.abs(mu) + 1.0
+        mu2 = np.clip(mu + np.clip(dmu, -cap, cap), -_MU_MAX, _MU_MAX)
         R2 = exp_rotation(dy[:3]) @ R
-        t2 = t + dy[3:6]
         y2 = y + dy
-        y2[:6] = 0.0
+        y2[:3] = 0.0
+        # the baseline between a millimetre and ten kilometres: beyond, a near-central rig's barely
+        # observed scale would run off along its flat valley
+        y2[5] = np.clip(y2[5], np.log(1e-3), np.log(1e4))
         rho = y2[7 + 2 * self.F::2]
         y2[7 + 2 * self.F::2] = np.maximum(rho, self.rho_min)
-        return R2, t2, y2, mu + dmu
+        return R2, y2, mu2
+
+    def jacobian_wt(self, R, y) -> np.ndarray:
+        """d(w, t) / d(w, tau, sigma) ``(6, 6)`` for the covariance of ``(w, t)``."""
+        that, ntv, k = self.parts(y)[5:]
+        J = np.zeros((6, 6))
+        J[:3, :3] = np.eye(3)
+        J[3:, :3] = skew(R @ self.ca)  # t = k that - R c_A + c_B, d(-R c_A)/dw = [R c_A]_x
+        J[3:, 3] = k * (self.f1 - that * (that @ self.f1)) / ntv
+        J[3:, 4] = k * (self.f2 - that * (that @ self.f2)) / ntv
+        J[3:, 5] = k * that
+        return J
 
 
 def _weights(e, sigma, c2, robust, mask):
@@ -213,8 +264,23 @@ def _solve_step(pb, A, b, e, w, lam):
     return dy, dmu
 
 
-def _lm(pb, R, t, y, mu, sigma, c2, robust, mask, max_iter):
-    e, A, b = pb.evaluate(R, t, y, mu)
+def _settle_depths(pb, R, y, mu):
+    """One Gauss-Newton step on each pixel's depth alone (the other unknowns fixed), so that a trial
+    step is judged at nearly the best depths: the depths are the most nonlinear unknowns (a pixel
+    near a vanishing point moves little with its depth), and one pixel overshooting must not make
+    the whole step fail. Returns ``(mu, e, A, b)`` at the new depths."""
+    e, A, b = pb.evaluate(R, y, mu)
+    bb = np.sum(b * b, axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dmu = np.where(bb > 0, -np.sum(b * np.nan_to_num(e), axis=1) / bb, 0.0)
+    cap = np.abs(mu) + 1.0
+    mu = np.clip(mu + np.clip(dmu, -cap, cap), -_MU_MAX, _MU_MAX)
+    e, A, b = pb.evaluate(R, y, mu)
+    return mu, e, A, b
+
+
+def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter):
+    mu, e, A, b = _settle_depths(pb, R, y, mu)
     w, cost = _weights(e, sigma, c2, robust, mask)
     lam = 1e-3
     it = 0
@@ -222,8 +288,8 @@ def _lm(pb, R, t, y, mu, sigma, c2, robust, mask, max_iter):
         improved = False
         for _ in range(8):
             dy, dmu = _solve_step(pb, A, b, e, w, lam)
-            R2, t2, y2, mu2 = pb.apply(R, t, y, mu, dy, dmu)
-            e2, _, _ = pb.evaluate(R2, t2, y2, mu2, jac=False)
+            R2, y2, mu2 = pb.apply(R, y, mu, dy, dmu)
+            mu2, e2, A2, b2 = _settle_depths(pb, R2, y2, mu2)
             _, cost2 = _weights(e2, sigma, c2, robust, mask)
             if cost2 <= cost:
                 improved = True
@@ -232,24 +298,23 @@ def _lm(pb, R, t, y, mu, sigma, c2, robust, mask, max_iter):
         if not improved:
             break
         rel = (cost - cost2) / max(cost, 1e-300)
-        R, t, y, mu = R2, t2, y2, mu2
-        cost = cost2
+        R, y, mu, e, A, b = R2, y2, mu2, e2, A2, b2
         lam = max(lam / 4.0, 1e-9)
-        e, A, b = pb.evaluate(R, t, y, mu)
         w, cost = _weights(e, sigma, c2, robust, mask)
-        if rel < 1e-10 or np.linalg.norm(dy[:6]) < 1e-14 * (1.0 + np.linalg.norm(t)):
+        if rel < 1e-7:
             break
-    return R, t, y, mu, cost, it
+    return R, y, mu, cost, it
 
 
 def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, owner_a, uv_b, owner_b, *,
-                    sigma_cost: float = 1.0, pixel_sigma: float | None = None, robust: bool = True,
-                    c2: float = 9.0, max_iter: int = 50, inlier_sigmas: float = 3.5) -> TwoViewFit:
+                    centres=None, sigma_cost: float = 1.0, pixel_sigma: float | None = None, robust: bool = True,
+                    c2: float = 9.0, max_iter: int = 30, inlier_sigmas: float = 3.5) -> TwoViewFit:
     """Refine ``x_B = R x_A + t`` and the lines jointly from the pixels of both views.
 
     ``dirs0 (F, 3)``: starting family directions in A; ``points0 (L, 3)``: a starting point of
     each line in A, ``line_family (L,)`` its family; ``uv_a (Na, 2)`` with ``owner_a (Na,)`` (the
-    line each pixel images), likewise for B. ``sigma_cost``: the pixel scale of the robust
+    line each pixel images), likewise for B. ``centres``: ``(c_A, c_B)``, each view's point nearest
+    its rays (default: from the pixels' rays). ``sigma_cost``: the pixel scale of the robust
     stage (Cauchy, ``c2`` in units of it); ``pixel_sigma``: known pixel noise for the covariance
     (default: estimated from the inliers). Inliers after the robust stage: pixels within
     ``inlier_sigmas`` times the robust noise estimate (or ``pixel_sigma``); then a plain
@@ -264,34 +329,28 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     uv = np.concatenate([uv_a, uv_b])
     owner = np.concatenate([owner_a, owner_b])
     view = np.concatenate([np.zeros(len(uv_a), int), np.ones(len(uv_b), int)])
-    ra = cam_a.backproject(uv_a)
-    o, d = ra.origins[ra.valid], ra.directions[ra.valid]
-    proj = np.eye(3) - d[:, :, None] * d[:, None, :]
-    x0 = np.linalg.lstsq(proj.sum(0), np.einsum("nij,nj->i", proj, o), rcond=None)[0] if len(o) >= 2 else np.zeros(3)
-    if not np.all(np.isfinite(x0)) or np.linalg.norm(x0) > 1e3 * cam_a.mirror.scale:
-        x0 = np.mean(o, axis=0) if len(o) else np.zeros(3)
-    pb = _Problem(cam_a, cam_b, np.asarray(dirs0, float), np.asarray(points0, float), line_family, uv, owner, view,
-                  x0)
+    if centres is None:
+        centres = (_rays_centre(cam_a, uv_a), _rays_centre(cam_b, uv_b))
     R = np.asarray(R0, float)
-    t = np.asarray(t0, float).copy()
-    y = pb.start(None)
+    pb = _Problem(cam_a, cam_b, np.asarray(dirs0, float), np.asarray(points0, float), line_family, uv, owner, view,
+                  centres, R, t0)
+    y = pb.start()
     # starting depths: each pixel's ray closest to its line (B's rays moved into A)
-    s, _, _, rho, u = pb.parts(y)
-    q = x0 + u / rho[:, None]
-    rays_o = np.full((len(uv), 3), np.nan)
-    rays_d = np.full((len(uv), 3), np.nan)
-    rays_o[: len(uv_a)], rays_d[: len(uv_a)] = ra.origins, ra.directions
-    rb = cam_b.backproject(uv_b)
-    rays_o[len(uv_a):] = (rb.origins - t) @ R
-    rays_d[len(uv_a):] = rb.directions @ R
+    s, _, _, rho, u, _, _, k = pb.parts(y)
+    q = pb.ca + k * u / rho[:, None]
+    t = pb.translation(R, y)
+    ra, rb = cam_a.backproject(uv_a), cam_b.backproject(uv_b)
+    rays_o = np.concatenate([ra.origins, (rb.origins - t) @ R])
+    rays_d = np.concatenate([ra.directions, rb.directions @ R])
     ql, sl = q[owner], s[pb.fam[owner]]
-    w0 = ql - np.nan_to_num(rays_o)
-    bb = np.sum(sl * np.nan_to_num(rays_d), 1)
-    lam0 = (bb * np.sum(np.nan_to_num(rays_d) * w0, 1) - np.sum(sl * w0, 1)) / np.maximum(1 - bb * bb, 1e-12)
-    mu = lam0 * rho[owner]
+    rays_o, rays_d = np.nan_to_num(rays_o), np.nan_to_num(rays_d)
+    w0 = ql - rays_o
+    bb = np.sum(sl * rays_d, 1)
+    lam0 = (bb * np.sum(rays_d * w0, 1) - np.sum(sl * w0, 1)) / np.maximum(1 - bb * bb, 1e-12)
+    mu = np.clip(lam0 * rho[owner] / k, -_MU_MAX, _MU_MAX)
     mask = np.ones(len(uv), dtype=bool)
-    R, t, y, mu, cost, it1 = _lm(pb, R, t, y, mu, sigma_cost, c2, robust, mask, max_iter)
-    e, _, _ = pb.evaluate(R, t, y, mu, jac=False)
+    R, y, mu, cost, it1 = _lm(pb, R, y, mu, sigma_cost, c2, robust, mask, max_iter)
+    e, _, _ = pb.evaluate(R, y, mu, jac=False)
     dist = np.linalg.norm(e, axis=1)
     fin = np.isfinite(dist)
     if pixel_sigma is not None:
@@ -302,8 +361,8 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     inl = fin & (dist <= thr)
     if inl[view == 1].sum() < 3:
         inl = fin
-    R, t, y, mu, _, it2 = _lm(pb, R, t, y, mu, 1.0, c2, False, inl, max_iter)
-    e, A, b = pb.evaluate(R, t, y, mu)
+    R, y, mu, _, it2 = _lm(pb, R, y, mu, 1.0, c2, False, inl, max_iter)
+    e, A, b = pb.evaluate(R, y, mu)
     dist = np.linalg.norm(e, axis=1)
     inl &= np.isfinite(dist)
     w = inl.astype(float)
@@ -312,16 +371,34 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     dof = n_in - pb.ny  # two residuals and one depth per pixel
     rss = float(np.sum(dist[inl] ** 2))
     sigma = pixel_sigma if pixel_sigma is not None else (float(np.sqrt(rss / dof)) if dof > 0 else float("nan"))
-    sc = np.sqrt(np.maximum(np.diag(S), 1e-300))
-    ev, V = np.linalg.eigh(S / np.outer(sc, sc))
+    # inverse of the information on the unknowns the pixels see; an unknown they do not see at all
+    # (zero information) gets an infinite variance, one they barely see an enormous one
+    seen = np.diag(S) > 0
+    cov_y = np.full(S.shape, np.nan)
+    np.fill_diagonal(cov_y, np.inf)
+    sc = np.sqrt(np.diag(S)[seen])
+    ev, V = np.linalg.eigh(S[np.ix_(seen, seen)] / np.outer(sc, sc))
     ev = np.maximum(ev, 1e-15 * max(ev.max(), 1e-300))
-    cov_y = (V / ev) @ V.T / np.outer(sc, sc) * sigma**2
-    s, _, _, rho, u = pb.parts(y)
-    q = x0 + u / rho[:, None]
+    cov_y[np.ix_(seen, seen)] = (V / ev) @ V.T / np.outer(sc, sc) * sigma**2
+    Jwt = pb.jacobian_wt(R, y)
+    cov = Jwt @ cov_y[:6, :6] @ Jwt.T
+    s, _, _, rho, u, _, _, k = pb.parts(y)
+    q = pb.ca + k * u / rho[:, None]
     sl = s[pb.fam]
     q = q - np.sum(q * sl, 1, keepdims=True) * sl
     rms = np.array([float(np.sqrt(np.mean(dist[inl & (view == v)] ** 2))) if np.any(inl & (view == v)) else np.nan
                     for v in (0, 1)])
-    return TwoViewFit(R=R, t=t, cov=cov_y[:6, :6], directions=s, points=q, sigma=sigma, cost=cost, rms_px=rms,
-                      inliers_a=inl[view == 0], inliers_b=inl[view == 1],
+    return TwoViewFit(R=R, t=pb.translation(R, y), cov=cov, directions=s, points=q, sigma=sigma, cost=cost,
+                      rms_px=rms, inliers_a=inl[view == 0], inliers_b=inl[view == 1],
                       n_pixels=np.array([int(np.sum(inl & (view == v))) for v in (0, 1)]), iterations=it1 + it2)
+
+
+def _rays_centre(cam, uv) -> np.ndarray:
+    """The point nearest the rays of pixels ``uv``."""
+    r = cam.backproject(uv)
+    o, d = r.origins[r.valid], r.directions[r.valid]
+    if len(o) < 2:
+        return np.zeros(3)
+    P = np.eye(3) - d[:, :, None] * d[:, None, :]
+    c = np.linalg.lstsq(P.sum(0), np.einsum("nij,nj->i", P, o), rcond=None)[0]
+    return c if np.all(np.isfinite(c)) and np.linalg.norm(c) < 1e3 * cam.mirror.scale else np.mean(o, axis=0)

@@ -23,11 +23,10 @@ on both halves, which orients it and rejects many pairs at once.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from itertools import combinations
 
 import numpy as np
 
-__all__ = ["CrossingFit", "translation_direction_from_crossings"]
+__all__ = ["MeetingRays", "meeting_rays", "CrossingFit", "translation_direction_from_crossings"]
 
 
 @dataclass
@@ -62,110 +61,146 @@ def _rad_per_px(cam) -> float:
     return float(np.median(np.arccos(c)))
 
 
-def _half_circle_side(view, est, k):
-    """Unit ``u`` in the line's plane, normal to its direction, on the side its pixels are seen."""
-    n = est.normals[k]
+@dataclass
+class MeetingRays:
+    """Where pairs of lines of different families meet, seen from each view's centre: unit rays
+    ``xa (K, 3)`` (frame A) and ``xb (K, 3)`` (frame B), oriented towards the meeting point;
+    ``n_lines``: lines matched in both views; ``rad_per_px``: the coarser view's angle per pixel.
+    Most pairs of lines do not meet in 3-D: their rays are outliers."""
+
+    xa: np.ndarray
+    xb: np.ndarray
+    n_lines: int
+    rad_per_px: float
+
+
+def _sides(view, est):
+    """Per line of a family: unit ``u`` in its plane, normal to its direction, on the side its
+    pixels are seen (a line's image is the half of its great circle around ``u``)."""
     s = est.direction
-    u = np.cross(n, s)
-    u /= np.linalg.norm(u)
-    r = view.cam.backproject(view.uv[est.lines[k]][est.inliers[k]])
-    d = r.directions[r.valid]
-    if len(d) and np.mean(d @ u) < 0:
-        u = -u
+    u = np.cross(est.normals, s)
+    u /= np.maximum(np.linalg.norm(u, axis=1, keepdims=True), 1e-300)
+    for k, line in enumerate(est.lines):
+        r = view.cam.backproject(view.uv[line][est.inliers[k]])
+        d = r.directions[r.valid]
+        if len(d) and np.mean(d @ u[k]) < 0:
+            u[k] = -u[k]
     return u
 
 
-def _meeting_rays(view, est_i, ki, est_j, kj):
-    """The oriented ray where lines (est_i, ki) and (est_j, kj) meet, or None when their planes
-    meet outside the seen half of either line."""
-    x = np.cross(est_i.normals[ki], est_j.normals[kj])
-    nx = np.linalg.norm(x)
-    if nx < 1e-9:
-        return None
-    x /= nx
-    ui, uj = _half_circle_side(view, est_i, ki), _half_circle_side(view, est_j, kj)
-    if x @ ui < 0:
-        x = -x
-    if x @ uj <= 0:
-        return None
-    return x
+def _meeting(n_i, u_i, n_j, u_j):
+    """The oriented rays where the planes of lines i and j meet on the seen half of both (NaN rows
+    where they do not)."""
+    x = np.cross(n_i, n_j)
+    nx = np.linalg.norm(x, axis=-1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        x = x / nx
+    x = np.where(np.sum(x * u_i, -1, keepdims=True) < 0, -x, x)
+    ok = (nx[..., 0] > 1e-9) & (np.sum(x * u_j, -1) > 0)
+    return np.where(ok[..., None], x, np.nan)
 
 
-def translation_direction_from_crossings(view_a, view_b, ea, eb, keys, R, *, sigma_px: float = 1.0, seed: int = 0,
-                                         trials: int = 400, c2: float = 9.0):
-    """The displacement direction between the centres of two views, given ``R``.
-
-    ``ea``, ``eb``: ``{family: FamilyEstimate}`` of each view (``normals``: planes through the
-    view's ``centre``); ``keys``:
-    the families used; lines are matched by their ``line_id``. Returns a :class:`CrossingFit`,
-    or None when fewer than two pairs of lines meet in both views."""
-    ids_a = {}
-    for key in keys:
-        for k, i in enumerate(ea[key].lines):
-            if view_a.line_id[i] is not None:
-                ids_a[view_a.line_id[i]] = (key, k)
-    matched = []
-    for key in keys:
-        for k, i in enumerate(eb[key].lines):
-            lid = view_b.line_id[i]
-            if lid is not None and lid in ids_a and ids_a[lid][0] == key:
-                matched.append((key, ids_a[lid][1], k))
-    xa, xb = [], []
-    for (f1, a1, b1), (f2, a2, b2) in combinations(matched, 2):
-        if f1 == f2:
-            continue
-        ra = _meeting_rays(view_a, ea[f1], a1, ea[f2], a2)
-        rb = _meeting_rays(view_b, eb[f1], b1, eb[f2], b2)
-        if ra is not None and rb is not None:
-            xa.append(ra)
-            xb.append(rb)
-    if len(xa) < 2:
+def meeting_rays(view_a, view_b, ea, eb, keys) -> MeetingRays | None:
+    """The meeting rays of every pair of lines of different families matched in both views (by
+    ``line_id``), or None when there are fewer than two."""
+    rows = {"A": [], "B": []}
+    for view, est, side in ((view_a, ea, "A"), (view_b, eb, "B")):
+        for key in keys:
+            e = est[key]
+            u = _sides(view, e)
+            for k, i in enumerate(e.lines):
+                lid = view.line_id[i]
+                if lid is not None:
+                    rows[side].append((lid, key, e.normals[k], u[k]))
+    b_of = {r[0]: r for r in rows["B"]}
+    matched = [(ra, b_of[ra[0]]) for ra in rows["A"] if ra[0] in b_of and b_of[ra[0]][1] == ra[1]]
+    if len(matched) < 2:
         return None
-    xa, xb = np.array(xa), np.array(xb)
-    Rxa = xa @ R.T
-    A = np.cross(Rxa, xb)
+    fam = np.array([keys.index(m[0][1]) for m in matched])
+    nA = np.array([m[0][2] for m in matched])
+    uA = np.array([m[0][3] for m in matched])
+    nB = np.array([m[1][2] for m in matched])
+    uB = np.array([m[1][3] for m in matched])
+    i, j = np.triu_indices(len(matched), 1)
+    keep = fam[i] != fam[j]
+    i, j = i[keep], j[keep]
+    xa = _meeting(nA[i], uA[i], nA[j], uA[j])
+    xb = _meeting(nB[i], uB[i], nB[j], uB[j])
+    ok = np.all(np.isfinite(xa), 1) & np.all(np.isfinite(xb), 1)
+    if ok.sum() < 2:
+        return None
+    return MeetingRays(xa[ok], xb[ok], len(matched), max(_rad_per_px(view_a.cam), _rad_per_px(view_b.cam)))
+
+
+def _depths(p, q, T):
+    """Depths ``(lam, mu)`` of ``lam p + T = mu q`` in least squares, for rays ``p, q (K, 3)`` (unit)
+    and translations ``T (H, 3)``: ``(H, K)`` each, and the rays' angle cosine ``(K,)``."""
+    pq = np.sum(p * q, axis=-1)
+    det = np.maximum(1.0 - pq**2, 1e-300)
+    pt, qt = T @ p.T, T @ q.T
+    lam = (-pt + pq * qt) / det
+    mu = (qt - pq * pt) / det
+    return lam, mu, pq
+
+
+def _costs(A, p, q, T, thr, min_parallax, c2):
+    """Truncated cost ``(H,)`` and inlier masks ``(H, K)`` of translations ``T (H, 3)``: a meeting ray is
+    an inlier when it is within ``thr`` of its epipolar plane and both depths are positive (or the
+    two rays are too nearly parallel for the depths to say anything)."""
+    r2 = (T @ A.T) ** 2 / (thr / 3.0) ** 2
+    lam, mu, pq = _depths(p, q, T)
+    far = pq > np.cos(min_parallax)
+    ahead = ((lam > 0) & (mu > 0)) | far[None, :]
+    inl = (r2 <= c2) & ahead
+    return np.sum(np.where(inl, r2, c2), axis=1), inl
+
+
+def translation_direction_from_crossings(rays: MeetingRays | None, R, *, sigma_px: float = 1.0, seed: int = 0,
+                                         trials: int = 300, c2: float = 9.0) -> CrossingFit | None:
+    """The displacement direction between the centres of two views, given ``R``, from the rays
+    where lines meet (:func:`meeting_rays`). The inlier threshold is three times
+    ``max(0.5, sigma_px / 2)`` pixels (a meeting point is the crossing of two fitted curves,
+    better placed than a pixel) in angle; a hypothesis' inliers must also lie in front of
+    both centres. Returns a :class:`CrossingFit`, or None when no two rays are usable."""
+    if rays is None:
+        return None
+    p = rays.xa @ R.T
+    q = rays.xb
+    A = np.cross(p, q)
     na = np.linalg.norm(A, axis=1)
-    good = na > 1e-9
-    A, Rxa, xb = A[good] / na[good, None], Rxa[good], xb[good]
-    if len(A) < 2:
+    use = na > 1e-12
+    A = A / np.maximum(na, 1e-300)[:, None]
+    if use.sum() < 2:
         return None
-    thr = 3.0 * max(sigma_px, 0.3) * max(_rad_per_px(view_a.cam), _rad_per_px(view_b.cam)) * np.sqrt(2.0)
+    thr = 3.0 * max(0.5, 0.5 * sigma_px) * np.sqrt(2.0) * rays.rad_per_px
+    min_parallax = 3.0 * thr
     rng = np.random.default_rng(seed)
-    pairs = list(combinations(range(len(A)), 2))
-    if len(pairs) > trials:
-        pick = rng.choice(len(pairs), trials, replace=False)
-        pairs = [pairs[i] for i in pick]
-    P = np.array(pairs)
+    idx = np.flatnonzero(use)
+    P = np.array([rng.choice(idx, 2, replace=False) for _ in range(trials)]) if len(idx) > 2 else idx[None]
     T = np.cross(A[P[:, 0]], A[P[:, 1]])
     nt = np.linalg.norm(T, axis=1)
     T = T[nt > 1e-9] / nt[nt > 1e-9, None]
     if len(T) == 0:
         return None
-    res = np.abs(T @ A.T)  # sine of the angle of each meeting ray to the epipolar plane
-    score = np.sum(np.minimum(res**2 / thr**2, 1.0), axis=1)
-    t = T[int(np.argmin(score))]
-    for _ in range(5):  # least squares on the inliers
-        inl = np.abs(A @ t) <= thr
-        if inl.sum() < 2:
+    T = np.concatenate([T, -T])  # the sign is a hypothesis too (the depths decide)
+    cost, _ = _costs(A, p, q, T, thr, min_parallax, c2)
+    t = T[int(np.argmin(cost))]
+    thr_fit = thr
+    for _ in range(8):  # least squares on the inliers, keeping the side; the threshold then follows the
+        _, inl = _costs(A, p, q, t[None], thr_fit, min_parallax, c2)  # inliers' own spread (pairs of
+        if inl[0].sum() < 2:  # lines that do not meet but pass close must not bias the direction)
             break
-        t_new = np.linalg.eigh(A[inl].T @ A[inl])[1][:, 0]
+        t_new = np.linalg.eigh(A[inl[0]].T @ A[inl[0]])[1][:, 0]
         t = t_new if t_new @ t >= 0 else -t_new
-    inl = np.abs(A @ t) <= thr
-    # cheirality: lambda R x_A + t = mu x_B with lambda, mu > 0 for the right sign
-    votes = 0
-    for k in np.nonzero(inl)[0]:
-        M = np.stack([Rxa[k], -xb[k]], axis=1)
-        lm = np.linalg.lstsq(M, -t, rcond=None)[0]
-        votes += 1 if (lm[0] > 0 and lm[1] > 0) else (-1 if (lm[0] < 0 and lm[1] < 0) else 0)
-    if votes < 0:
-        t = -t
+        r = np.abs(A[inl[0]] @ t)
+        thr_fit = min(thr, max(3.0 * 1.4826 * float(np.median(r)), 1e-12))
+    cost, inl = _costs(A, p, q, t[None], thr, min_parallax, c2)
+    inl = inl[0]
     sig_r = thr / 3.0
-    r2 = (A @ t) ** 2 / sig_r**2
-    cost = float(np.sum(np.minimum(r2, c2)))  # MSAC: an outlier costs c2, whatever its residual
     e1 = np.cross(t, [1.0, 0.0, 0.0] if abs(t[0]) < 0.8 else [0.0, 1.0, 0.0])
     e1 /= np.linalg.norm(e1)
     E = np.stack([e1, np.cross(t, e1)], 1)
     J = A[inl] @ E
     cov = E @ np.linalg.pinv(J.T @ J) @ E.T * sig_r**2 if inl.sum() >= 2 else np.full((3, 3), np.nan)
-    return CrossingFit(t=t, cov=cov, cost=cost, n_crossings=len(A), n_inliers=int(inl.sum()), n_lines=len(matched),
-                       threshold_rad=float(thr))
+    return CrossingFit(t=t, cov=cov, cost=float(cost[0]), n_crossings=len(A), n_inliers=int(inl.sum()),
+                       n_lines=rays.n_lines, threshold_rad=float(thr))

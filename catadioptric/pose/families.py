@@ -78,8 +78,10 @@ class FamilyEstimate:
     unit ``normals (L, 3)`` of the planes through ``centre`` that hold each line (central: the
     interpretation planes, ``centre`` the viewpoint; non-central: the planes through the
     point nearest all the rays of the image, which a near-central rig fixes far better than
-    the line's distance); ``inliers``: a boolean mask per kept line over its pixels; ``sigma``
-    (pixels) and ``rms`` of the fit; ``dropped``: ``{line index: reason}``."""
+    the line's distance); ``inv_distance``, ``inv_distance_std (L,)``: each line's inverse distance
+    from ``centre`` and its standard error (non-central; NaN for central: one view does not place
+    a line); ``inliers``: a boolean mask per kept line over its pixels; ``sigma`` (pixels) and
+    ``rms`` of the fit; ``dropped``: ``{line index: reason}``."""
 
     key: object
     direction: np.ndarray
@@ -88,6 +90,8 @@ class FamilyEstimate:
     pluecker: np.ndarray
     normals: np.ndarray
     centre: np.ndarray
+    inv_distance: np.ndarray
+    inv_distance_std: np.ndarray
     inliers: list
     sigma: float
     rms: float
@@ -95,6 +99,14 @@ class FamilyEstimate:
 
 
 _NAMED = re.compile(r"uv_sets\[(\d+)\]")
+
+
+def _full(mask, picks, n):
+    """An inlier mask over all ``n`` pixels of a line from the mask over the ``picks`` fitted: the
+    pixels not fitted count as inliers."""
+    out = np.ones(n, dtype=bool)
+    out[picks] = mask
+    return out
 
 
 def _fit_noncentral(cam, uv_sets, seed, f_scale, pixel_sigma, max_drops=8):
@@ -136,25 +148,35 @@ def _fit_central(cam, uv_sets, seed, f_scale, pixel_sigma):
     return planes, s, cov, keep, dropped
 
 
+def _spread(n: int, k: int | None) -> np.ndarray:
+    """At most ``k`` of ``n`` indices, evenly spread (all when ``k`` is None)."""
+    if k is None or n <= k:
+        return np.arange(n)
+    return np.unique(np.round(np.linspace(0, n - 1, k)).astype(int))
+
+
 def fit_view_families(view: ViewLines, *, keys=None, seed=0, f_scale: float = 1.0, pixel_sigma=None,
-                      hints: dict | None = None) -> tuple[dict, dict]:
+                      hints: dict | None = None, max_pixels: int | None = None) -> tuple[dict, dict]:
     """Fit every family of ``view`` (or those in ``keys``). Returns ``(estimates, failures)``:
     ``{family: FamilyEstimate}`` and ``{family: reason}``. ``hints``: ``{family: direction}``
     in the view's mirror frame (a matched end, e.g. from a vanishing point): the fitted
-    direction is flipped to agree with it."""
+    direction is flipped to agree with it. ``max_pixels``: fit each line on at most this many
+    of its pixels, evenly spread (the others count as inliers)."""
     fams = view.families()
     est, fail = {}, {}
     central = is_central(view.cam)
     centre = rays_centre(view.cam)
     for key in (fams if keys is None else [k for k in keys if k in fams]):
         idx = fams[key]
-        sets = [view.uv[i] for i in idx]
+        picks = [_spread(len(view.uv[i]), max_pixels) for i in idx]
+        sets = [view.uv[i][p] for i, p in zip(idx, picks)]
         try:
             if central:
                 planes, s, cov, keep, dropped = _fit_central(view.cam, sets, seed, f_scale, pixel_sigma)
                 normals = np.array([p.normal for p in planes])
+                rho = rho_sd = np.full(len(keep), np.nan)
                 pl = np.full((len(keep), 6), np.nan)
-                inl = [p.inliers for p in planes]
+                inl = [_full(p.inliers, picks[k], len(view.uv[idx[k]])) for p, k in zip(planes, keep)]
                 rms = float(np.sqrt(np.mean(np.concatenate([p.distances[p.inliers] ** 2 for p in planes]))))
                 sig = float(np.nanmedian([p.rms for p in planes]))
             else:
@@ -162,8 +184,12 @@ def fit_view_families(view: ViewLines, *, keys=None, seed=0, f_scale: float = 1.
                 s, cov = fit.direction, fit.direction_cov
                 pl = np.concatenate([np.tile(s, (fit.n_lines, 1)), fit.moments], axis=1)
                 normals = np.cross(fit.points - centre, s)
-                normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
-                inl = fit.inliers
+                dist = np.linalg.norm(normals, axis=1)
+                normals /= np.maximum(dist, 1e-300)[:, None]
+                rho = 1.0 / np.maximum(dist, 1e-300)
+                # the fit's parameters are (direction, then angle and inverse distance per line)
+                rho_sd = np.sqrt(np.maximum(np.diag(fit.cov)[3::2], 0.0))
+                inl = [_full(m, picks[k], len(view.uv[idx[k]])) for m, k in zip(fit.inliers, keep)]
                 rms, sig = fit.rms, fit.sigma
         except CatadioptricError as exc:
             fail[key] = str(exc)
@@ -174,6 +200,7 @@ def fit_view_families(view: ViewLines, *, keys=None, seed=0, f_scale: float = 1.
                 s = -s
                 pl = -pl
         est[key] = FamilyEstimate(key=key, direction=s, cov=cov, lines=[idx[k] for k in keep], pluecker=pl,
-                                  normals=normals, centre=centre, inliers=list(inl), sigma=sig, rms=rms,
+                                  normals=normals, centre=centre, inv_distance=rho, inv_distance_std=rho_sd,
+                                  inliers=list(inl), sigma=sig, rms=rms,
                                   dropped={idx[k]: v for k, v in dropped.items()})
     return est, fail

@@ -28,13 +28,16 @@ import numpy as np
 
 from .._checks import CatadioptricError, as_scalar
 from .bundle import TwoViewFit, refine_two_view
-from .central import translation_direction_from_crossings
+from .central import meeting_rays, translation_direction_from_crossings
 from .families import FamilyEstimate, ViewLines, fit_view_families, is_central
 from .rotation import rotation_angle_deg
 from .signs import sign_candidates
 from .translation import relative_translation_from_lines
 
 __all__ = ["Candidate", "RelativePose", "relative_pose"]
+
+_FITS = 4.0  # a refinement fits the pixels when its robust cost is at most this per pixel (about 2 sigma)
+_SAME_DEG = 1.0  # two refined rotations closer than this are one answer
 
 
 @dataclass
@@ -121,113 +124,132 @@ def _triangulate(s, o, d):
     return xy[0] * e1 + xy[1] * e2
 
 
+def _two_view_direction(ea: FamilyEstimate, eb: FamilyEstimate, R) -> np.ndarray:
+    """A family's direction in A from the planes (through each view's centre) of its lines in both
+    views: the direction normal to all of them. One view of a near-central rig places each
+    line's plane far better than the direction within it; two views pin the direction even for
+    a family of one line. Oriented like view A's fit."""
+    n = np.concatenate([ea.normals, eb.normals @ R])
+    n = n[np.all(np.isfinite(n), axis=1)]
+    if len(n) < 2:
+        return ea.direction
+    s = np.linalg.eigh(n.T @ n)[1][:, 0]
+    return s if s @ ea.direction >= 0 else -s
+
+
 def _pixels_of(view, est: FamilyEstimate, k, max_pixels):
     line = est.lines[k]
     idx = _subsample(est.inliers[k], max_pixels)
     return view.uv[line][idx]
 
 
-def _scale_along(t_dir, offset, R, La, Lb, rays_a, ra_own, rays_b, rb_own):
-    """The length ``alpha`` of ``t = alpha t_dir + offset`` that the single-view lines suggest: the
-    weighted median over the rays of both views of each ray's own solution (robust to the
-    lines whose distance a near-central rig barely sees)."""
-    from .translation import _rows_a_to_b, _rows_b_to_a
-
-    c1, d1 = _rows_a_to_b(R, La, rays_b, rb_own)
-    c2, d2 = _rows_b_to_a(R, Lb, rays_a, ra_own)
-    c, d = np.concatenate([c1, c2]), np.concatenate([d1, d2])
-    k = c @ t_dir
-    ok = np.isfinite(k) & np.isfinite(d) & (np.abs(k) > 1e-9)
-    if ok.sum() < 3:
+def _scale_from_depths(t_dir, offset, R, pairs):
+    """The length ``alpha`` of ``t = alpha t_dir + offset`` that makes the lines triangulated from the
+    two views as far as each view's own fit puts them. ``pairs``: per matched line ``(s_A,
+    rays of A (o, d), rays of B in B (o, d), est_A (rho, sd), est_B (rho, sd), c_A, c_B)``. For a
+    (nearly) central rig a line triangulated with a unit baseline lies ``1 / beta`` times closer than
+    with the true one, ``beta = 1 / alpha``: a weighted least-squares fit of the inverse distances,
+    in which a near-central rig's single-view distances weigh by their own (large) uncertainty."""
+    num = den = 0.0
+    t1 = t_dir + offset
+    for s, (oa, da), (ob, db), (ra, sa), (rb, sb), ca, cb in pairs:
+        o = np.concatenate([oa, (ob - t1) @ R])
+        d = np.concatenate([da, db @ R])
+        q = _triangulate(s, o, d)
+        for rho, sd, c in ((ra, sa, ca), (rb, sb, R.T @ (cb - t1))):
+            dist1 = np.linalg.norm(np.cross(q - c, s))
+            if not (np.isfinite(rho) and np.isfinite(sd) and sd > 0 and dist1 > 0):
+                continue
+            x = 1.0 / dist1  # inverse distance at unit baseline: rho = beta * x
+            num += x * rho / sd**2
+            den += x * x / sd**2
+    if den <= 0 or num <= 0:
         return None
-    alpha = (d[ok] - c[ok] @ offset) / k[ok]
-    w = k[ok] ** 2
-    order = np.argsort(alpha)
-    cw = np.cumsum(w[order])
-    return float(alpha[order][np.searchsorted(cw, 0.5 * cw[-1])])
+    return den / num
 
 
 def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, sigma_cost, pixel_sigma):
-    """Starting translation and two-view refinement of one rotation candidate."""
+    """Starting translation and two-view refinement of one rotation candidate. Returns
+    ``(TwoViewFit or None, lines matched)``; None when fewer than two lines are matched in both
+    views."""
     R = cand.R
     signs = dict(zip(keys, cand.signs))
-    fam_index = {k: i for i, k in enumerate(keys)}
-    dirs_a = np.array([ea[k].direction for k in keys])
-    # lines: matched ones (pixels in both views), then those seen in one view only
-    lines, uv_a, own_a, uv_b, own_b = [], [], [], [], []
-    La, Lb, rays_a, ra_own, rays_b, rb_own = [], [], [], [], [], []
+    matched, single = [], []  # (key, ka, kb) with ka/kb None for a line seen in one view only
     for key in keys:
         A_ids = {va.line_id[i]: k for k, i in enumerate(ea[key].lines) if va.line_id[i] is not None}
         B_ids = {vb.line_id[i]: k for k, i in enumerate(eb[key].lines) if vb.line_id[i] is not None}
-        matched = [lid for lid in A_ids if lid in B_ids]
-        entries = [(A_ids[lid], B_ids[lid]) for lid in matched]
-        entries += [(k, None) for k in range(len(ea[key].lines)) if va.line_id[ea[key].lines[k]] not in matched]
-        entries += [(None, k) for k in range(len(eb[key].lines)) if vb.line_id[eb[key].lines[k]] not in matched]
-        for ka, kb in entries:
-            li = len(lines)
-            pa = _pixels_of(va, ea[key], ka, max_pixels) if ka is not None else np.zeros((0, 2))
-            pb = _pixels_of(vb, eb[key], kb, max_pixels) if kb is not None else np.zeros((0, 2))
-            lines.append((key, ka, kb))
-            uv_a.append(pa)
-            own_a.append(np.full(len(pa), li))
-            uv_b.append(pb)
-            own_b.append(np.full(len(pb), li))
-            if ka is not None and kb is not None:
-                La.append(ea[key].pluecker[ka])
-                Lb.append(eb[key].pluecker[kb] * signs[key])
-                m = len(La) - 1
-                rA, rB = va.cam.backproject(pa), vb.cam.backproject(pb)
-                rays_a.append(np.concatenate([rA.directions, np.cross(rA.origins, rA.directions)], 1)[rA.valid])
-                ra_own.append(np.full(int(rA.valid.sum()), m))
-                rays_b.append(np.concatenate([rB.directions, np.cross(rB.origins, rB.directions)], 1)[rB.valid])
-                rb_own.append(np.full(int(rB.valid.sum()), m))
-    n_matched = len(La)
-    if n_matched < 2:
-        return None, n_matched
-    ray_args = (np.array(La), np.array(Lb), np.concatenate(rays_a), np.concatenate(ra_own), np.concatenate(rays_b),
-                np.concatenate(rb_own))
+        matched += [(key, A_ids[lid], B_ids[lid]) for lid in A_ids if lid in B_ids]
+        single += [(key, k, None) for k, i in enumerate(ea[key].lines) if va.line_id[i] not in B_ids]
+        single += [(key, None, k) for k, i in enumerate(eb[key].lines) if vb.line_id[i] not in A_ids]
+    if len(matched) < 2:
+        return None, len(matched)
+    rays = lambda view, est, k: view.cam.backproject(_pixels_of(view, est, k, max_pixels))
+    ra = [rays(va, ea[key], ka) for key, ka, _ in matched]
+    rb = [rays(vb, eb[key], kb) for key, _, kb in matched]
+    ok = lambda r: (r.origins[r.valid], r.directions[r.valid])
     if crossing is not None:
-        # direction between the rays' centres from where lines meet; length from the lines' depths
-        ca, cb = ea[keys[0]].centre, eb[keys[0]].centre
-        offset = cb - R @ ca
-        alpha = _scale_along(crossing.t, offset, R, *ray_args)
+        # the direction between the rays' centres from where lines meet, the length from the lines' depths
+        offset = eb[keys[0]].centre - R @ ea[keys[0]].centre
+        pairs = [(ea[key].direction, ok(a), ok(b), (ea[key].inv_distance[ka], ea[key].inv_distance_std[ka]),
+                  (eb[key].inv_distance[kb], eb[key].inv_distance_std[kb]), ea[key].centre, eb[key].centre)
+                 for (key, ka, kb), a, b in zip(matched, ra, rb)]
+        alpha = _scale_from_depths(crossing.t, offset, R, pairs)
         alpha = 1.0 if alpha is None or not np.isfinite(alpha) else float(np.clip(alpha, 0.05, 1e3))
         t0 = alpha * crossing.t + offset
     else:
-        t0, _ = relative_translation_from_lines(R, *ray_args)
-    # starting line points in A: matched lines triangulated from both views' rays with (R, t0)
-    pts, fams = [], []
-    for li, (key, ka, kb) in enumerate(lines):
-        s = ea[key].direction
-        o_parts, d_parts = [], []
-        if len(uv_a[li]):
-            r = va.cam.backproject(uv_a[li])
-            o_parts.append(r.origins[r.valid])
-            d_parts.append(r.directions[r.valid])
-        if len(uv_b[li]):
-            r = vb.cam.backproject(uv_b[li])
-            o_parts.append((r.origins[r.valid] - t0) @ R)
-            d_parts.append(r.directions[r.valid] @ R)
-        o, d = np.concatenate(o_parts), np.concatenate(d_parts)
-        if ka is not None and kb is None:
-            Lp = ea[key].pluecker[ka]
-            q = np.cross(Lp[:3], Lp[3:])
-        elif kb is not None and ka is None:
-            Lp = eb[key].pluecker[kb]
-            q = (np.cross(Lp[:3], Lp[3:]) - t0) @ R
+        pl = lambda rs: np.concatenate([np.concatenate([d, np.cross(o, d)], 1) for o, d in map(ok, rs)])
+        own = lambda rs: np.concatenate([np.full(int(r.valid.sum()), m) for m, r in enumerate(rs)])
+        t0, _ = relative_translation_from_lines(R, np.array([ea[k].pluecker[a] for k, a, _ in matched]),
+                                                np.array([eb[k].pluecker[b] * signs[k] for k, _, b in matched]),
+                                                pl(ra), own(ra), pl(rb), own(rb))
+    # directions from the planes of both views; matched lines triangulated; a line seen in one view
+    # starts in its plane through that view's centre, as far as the matched lines' median (one view of
+    # a near-central rig hardly places it: the refinement moves it where its pixels say)
+    used = [k for k in keys if any(m[0] == k for m in matched)]
+    fam_index = {k: i for i, k in enumerate(used)}
+    dirs_a = np.array([_two_view_direction(ea[k], eb[k], R) for k in used])
+    pts = [_triangulate(dirs_a[fam_index[key]], np.concatenate([ok(a)[0], (ok(b)[0] - t0) @ R]),
+                        np.concatenate([ok(a)[1], ok(b)[1] @ R])) for (key, _, _), a, b in zip(matched, ra, rb)]
+    c_a = ea[keys[0]].centre
+    c_b_in_a = R.T @ (eb[keys[0]].centre - t0)
+    d_med = float(np.median([np.linalg.norm(np.cross(q - c_a, dirs_a[fam_index[m[0]]])) for q, m in zip(pts, matched)]))
+    lines = list(matched)
+    for key, ka, kb in single:
+        if key not in fam_index:
+            continue
+        s = dirs_a[fam_index[key]]
+        if ka is not None:
+            n, c, r = ea[key].normals[ka], c_a, rays(va, ea[key], ka)
+            d = r.directions[r.valid]
         else:
-            q = _triangulate(s, o, d)
-        pts.append(q)
-        fams.append(fam_index[key])
-    fit = refine_two_view(va.cam, vb.cam, R, t0, dirs_a, np.array(pts), np.array(fams),
+            n, c, r = R.T @ eb[key].normals[kb], c_b_in_a, rays(vb, eb[key], kb)
+            d = r.directions[r.valid] @ R
+        u = np.cross(n, s)
+        if np.linalg.norm(u) < 1e-9 or len(d) == 0:
+            continue
+        u /= np.linalg.norm(u)
+        if np.mean(d @ u) < 0:
+            u = -u
+        pts.append(c + d_med * u)
+        lines.append((key, ka, kb))
+    uv_a, own_a, uv_b, own_b = [], [], [], []
+    for li, (key, ka, kb) in enumerate(lines):
+        if ka is not None:
+            uv_a.append(_pixels_of(va, ea[key], ka, max_pixels))
+            own_a.append(np.full(len(uv_a[-1]), li))
+        if kb is not None:
+            uv_b.append(_pixels_of(vb, eb[key], kb, max_pixels))
+            own_b.append(np.full(len(uv_b[-1]), li))
+    fit = refine_two_view(va.cam, vb.cam, R, t0, dirs_a, np.array(pts), np.array([fam_index[k] for k, _, _ in lines]),
                           np.concatenate(uv_a), np.concatenate(own_a), np.concatenate(uv_b), np.concatenate(own_b),
-                          sigma_cost=sigma_cost, pixel_sigma=pixel_sigma)
-    return fit, n_matched
+                          centres=(ea[keys[0]].centre, eb[keys[0]].centre), sigma_cost=sigma_cost,
+                          pixel_sigma=pixel_sigma)
+    return fit, len(matched)
 
 
 def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = None, seed=0, f_scale: float = 1.0,
                   pixel_sigma: float | None = None, decisive: float = 25.0, max_pixels: int | None = 60,
-                  min_families: int = 2) -> RelativePose:
+                  fit_pixels: int | None = 40, min_families: int = 2) -> RelativePose:
     """The relative pose ``x_B = R x_A + t`` of two views from the lines they see.
 
     ``view_a``, ``view_b``: :class:`ViewLines`. ``ends``: ``{family: (hint_a, hint_b)}``, for
@@ -236,9 +258,20 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
     known and nothing is searched. ``f_scale``: pixel scale of the robust losses;
     ``pixel_sigma``: known pixel noise (default: estimated). ``decisive``: the margin (chi-square
     units) the best candidate needs over the second. ``max_pixels``: pixels per line and view
-    used by the two-view refinement (evenly spaced). Raises :class:`CatadioptricError` naming
-    the cause when fewer than ``min_families`` families are seen in both views.
+    used by the two-view refinement (evenly spaced); ``fit_pixels``: per line in each view's own
+    family fits (which only start the refinement; a central model's fits are its estimate and
+    use ``max_pixels``). Raises :class:`CatadioptricError` naming the cause when fewer than
+    ``min_families`` families are seen in both views.
     """
+    from threadpoolctl import threadpool_limits
+
+    # every linear solve here is small: a multithreaded BLAS only fights other work for the cores
+    with threadpool_limits(1):
+        return _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, fit_pixels,
+                              min_families)
+
+
+def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, fit_pixels, min_families):
     if not isinstance(view_a, ViewLines) or not isinstance(view_b, ViewLines):
         raise CatadioptricError(f"view_a, view_b: expected ViewLines, got {type(view_a).__name__} and "
                                 f"{type(view_b).__name__}")
@@ -256,12 +289,14 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
         if missing:
             raise CatadioptricError(f"ends: expected the matched ends of every family seen in both views, "
                                     f"missing {missing}")
+    if central:  # the per-view fits are the estimate: on the same pixels as the exact refinement
+        fit_pixels = max_pixels
     hints_a = {k: ends[k][0] for k in common} if ends is not None else None
     hints_b = {k: ends[k][1] for k in common} if ends is not None else None
     ea, fail_a = fit_view_families(view_a, keys=common, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
-                                   hints=hints_a)
+                                   hints=hints_a, max_pixels=fit_pixels)
     eb, fail_b = fit_view_families(view_b, keys=common, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
-                                   hints=hints_b)
+                                   hints=hints_b, max_pixels=fit_pixels)
     notes = [f"family {k} not used in view A: {v}" for k, v in fail_a.items()]
     notes += [f"family {k} not used in view B: {v}" for k, v in fail_b.items()]
     keys = [k for k in common if k in ea and k in eb]
@@ -282,36 +317,51 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
     sigma_cost = pixel_sigma if pixel_sigma is not None else max(sigma_est, 1e-3 * f_scale)
     cands = sign_candidates(a, b, Ca, Cb, signs=np.ones(len(keys)) if ends is not None else None)
     # stage 1: directions and the rays where lines meet, for every candidate (cheap)
+    rays = meeting_rays(view_a, view_b, ea, eb, keys)
     stage = []
     for c in cands:
-        cr = translation_direction_from_crossings(view_a, view_b, ea, eb, keys, c.R, sigma_px=sigma_cost, seed=seed)
+        cr = translation_direction_from_crossings(rays, c.R, sigma_px=sigma_cost, seed=seed)
         stage.append((c.cost + (cr.cost if cr is not None else 0.0), c, cr))
     stage.sort(key=lambda x: x[0])
-    out, n_matched = [], 0
+    out = []
+    n_matched = rays.n_lines if rays is not None else 0
     for score1, c, cr in stage:
         cov = None
         if cr is not None:
-            n_matched = max(n_matched, cr.n_lines)
             cov = np.full((6, 6), np.nan)
             cov[:3, :3], cov[3:, 3:] = c.cov, cr.cov
         out.append(Candidate(dict(zip(keys, c.signs.astype(int))), c.R, None if cr is None else cr.t, score1, c.cost,
                              cov, cr))
     margin = out[1].cost - out[0].cost if len(out) > 1 else float("inf")
     if not central:
-        # stage 2: the metric refinement on the pixels of both views, for the best candidate and for
-        # every candidate that stage 1 could not tell from it (ranked by that refinement then)
-        close = [i for i, o in enumerate(out) if o.cost < out[0].cost + decisive]
-        for i in close:
-            fit, n_m = _noncentral_candidate(stage[i][1], keys, view_a, view_b, ea, eb, stage[i][2],
-                                             max_pixels=max_pixels, sigma_cost=sigma_cost, pixel_sigma=pixel_sigma)
-            n_matched = max(n_matched, n_m)
-            if fit is not None:
-                o = out[i]
-                out[i] = Candidate(o.signs, fit.R, fit.t, fit.cost, o.direction_cost, fit.cov, fit)
-        if len(close) > 1:
-            refined = sorted((out[i] for i in close), key=lambda o: o.cost)
-            out = refined + [o for i, o in enumerate(out) if i not in close]
-            margin = refined[1].cost - refined[0].cost
+        # stage 2: the metric refinement on the pixels of both views. The best candidate of stage 1 and
+        # every one stage 1 cannot tell from it (within ``decisive``) are refined and ranked by the
+        # refinement's cost; if the best of stage 1 then does not fit the pixels, every candidate is.
+        todo = [i for i, o in enumerate(out) if o.cost < out[0].cost + decisive]
+        done = set()
+        while todo:
+            for i in todo:
+                fit, n_m = _noncentral_candidate(stage[i][1], keys, view_a, view_b, ea, eb, stage[i][2],
+                                                 max_pixels=max_pixels, sigma_cost=sigma_cost, pixel_sigma=pixel_sigma)
+                n_matched = max(n_matched, n_m)
+                done.add(i)
+                if fit is not None:
+                    o = out[i]
+                    out[i] = Candidate(o.signs, fit.R, fit.t, fit.cost, o.direction_cost, fit.cov, fit)
+            fits = [out[i].fit for i in done if isinstance(out[i].fit, TwoViewFit)]
+            good = any(f.cost <= _FITS * int(f.n_pixels.sum()) for f in fits)
+            todo = [] if good or not fits else [i for i in range(len(out)) if i not in done]
+        refined = sorted((out[i] for i in done if isinstance(out[i].fit, TwoViewFit)), key=lambda o: o.cost)
+        if refined:
+            rest = [o for i, o in enumerate(out) if i not in done or not isinstance(o.fit, TwoViewFit)]
+            out = refined + rest
+            # the margin is to the next different answer (two candidates that refine to the same rotation
+            # are one answer); candidates never refined lost stage 1 by at least ``decisive``
+            others = [o.cost - refined[0].cost for o in refined[1:]
+                      if rotation_angle_deg(o.R @ refined[0].R.T) > _SAME_DEG]
+            if len(done) < len(stage):
+                others.append(max(decisive, min(s[0] for i, s in enumerate(stage) if i not in done) - stage[0][0]))
+            margin = min(others) if others else float("inf")
     best = out[0]
     if not central and not isinstance(best.fit, TwoViewFit):
         notes.append("no two lines were matched in both views with a fitted 3-D line in each: metric translation "

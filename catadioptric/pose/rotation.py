@@ -162,5 +162,6 @@ def refine_rotation(a, b, cov_a, cov_b, R0=None, *, robust: bool = True, c2: flo
     J = skew(Ra)
     H = np.einsum("n,nki,nkl,nlj->ij", rw, J, W, J)
     cov = np.linalg.pinv(H)
+    chi2 = np.maximum(chi2, 0.0)
     cost = float(np.sum(c2 * np.log1p(chi2 / c2))) if robust else float(np.sum(chi2))
     return DirectionRotation(R=R, cov=cov, chi2=chi2, weights=rw, cost=cost)

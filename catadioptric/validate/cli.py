@@ -1,47 +1,120 @@
-"""``catadioptric validate``: run an experiment and write its report (JSON + Markdown + PNG)."""
+"""``catadioptric validate``: run an experiment and write its report (JSON + Markdown + PNG).
+
+    catadioptric validate relative-pose DATASET --views A B --out DIR [--noise PX ...] [--draws N] ...
+    catadioptric validate benchmark [--spec FILE] [--quick] --out DIR [--workers N]
+    catadioptric validate noise-sweep --out DIR [--trials N] [--seed N]
+
+``relative-pose`` exits with code 3 when a draw's answer is ambiguous (its report lists every
+candidate), 2 on bad input, 0 otherwise.
+"""
 from __future__ import annotations
 
+import os
 import shlex
 import sys
 
+from ..cliargs import check_out_dir, nonnegative_float, positive_int
 
-def _relative_rotation(args) -> int:
-    from . import relative_rotation as rr
+AMBIGUOUS_EXIT = 3
+DEFAULT_SPEC = os.path.join("validate", "relative_pose.toml")
+
+
+def _command(args) -> str:
+    return "catadioptric " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if args.command_line is None \
+        else args.command_line
+
+
+def _relative_pose(args) -> int:
+    from .._checks import CatadioptricError
+    from .._extras import require
+    from ..dataset import Dataset
+    from . import relative_pose as rp
     from .report import write_report
 
-    res = rr.run_seeds(args.dataset, range(args.seed, args.seed + args.draws), noise_px=args.noise,
-                       max_pixels=args.max_pixels, central=not args.no_central)
-    cmd = "catadioptric " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if args.command_line is None \
-        else args.command_line
-    paths = write_report(args.out, res, rr.markdown(res, cmd), {"vanishing_points": rr.figure(res, args.dataset)})
-    print_summary(res)
+    out = check_out_dir(args.out)
+    try:
+        ds = Dataset(args.dataset)
+    except CatadioptricError as exc:
+        raise CatadioptricError(f"DATASET: {exc}") from None
+    if args.views is None:
+        if len(ds.names) < 2:
+            raise CatadioptricError(f"--views: the dataset has {len(ds.names)} view(s); expected at least two")
+        views = ds.names[:2]
+    else:
+        views = args.views
+    if args.min_pixels > args.max_pixels:
+        raise CatadioptricError(f"--min-pixels: expected at most --max-pixels ({args.max_pixels}), got "
+                                f"{args.min_pixels}")
+    res = rp.evaluate_pair(ds, views, noise_levels=args.noise, draws=args.draws, seed=args.seed,
+                           pixels=args.pixels, min_pixels=args.min_pixels, max_pixels=args.max_pixels, ends=args.ends,
+                           central=not args.no_central)
+    figures = {}
+    try:
+        require("matplotlib", "the pair figure")
+        figures["lines"] = rp.pair_figure(res, ds)
+    except ImportError:
+        pass
+    paths = write_report(out, res, rp.pair_markdown(res, _command(args)), figures)
+    amb = 0
+    for d in res["draws"]:
+        c = d.get("central", {})
+        if "error" in d:
+            print(f"noise {d['noise_px']:g} px, draw {d['draw']}: failed: {d['error']}")
+            continue
+        amb += int(d["ambiguous"])
+        state = "AMBIGUOUS (every candidate is in the report)" if d["ambiguous"] else \
+            f"rotation {d['rotation_error_deg']:.4f} deg (Frobenius {d['frobenius_error']:.4f})"
+        tr = ""
+        if d["translation_error_m"] is not None:
+            tr = f", translation {d['translation_error_m']:.3f} m"
+        if d["translation_direction_error_deg"] is not None:
+            tr += f", direction {d['translation_direction_error_deg']:.2f} deg"
+        cen = ""
+        if c and "error" not in c:
+            cen = f" | central: rotation {c['rotation_error_deg']:.4f} deg" + (" (ambiguous)" if c["ambiguous"] else "")
+        print(f"noise {d['noise_px']:g} px, draw {d['draw']}: {state}{tr}{cen}")
     print("wrote " + ", ".join(paths))
+    if amb:
+        print(f"{amb} of {len(res['draws'])} draws are ambiguous: no answer is given for them", file=sys.stderr)
+        return AMBIGUOUS_EXIT
     return 0
 
 
-def print_summary(res: dict) -> None:
-    A, B = res["views"]
-    used = [r for r in res["families"] if r["used"]]
-    print(f"relative rotation {A} -> {B} from {len(used)} families of parallel lines "
-          f"(noise {res['noise_px']} px):")
-    print(f"  non-central (exact) model : {res['angle_error_deg']:.4f} deg, Frobenius {res['frobenius_error']:.4f}")
-    if "central" in res:
-        c = res["central"]
-        print(f"  central approximation     : {c['angle_error_deg']:.4f} deg, Frobenius {c['frobenius_error']:.4f}")
-    if len(res.get("draws", {}).get("rows", [])) > 1:
-        d = res["draws"]
-        print(f"  over {len(d['rows'])} noise draws: median {d['median_deg']:.4f} deg, max {d['max_deg']:.4f} deg "
-              f"(central: median {d['central_median_deg']:.4f}, max {d['central_max_deg']:.4f})")
-    print("  (the paper, CVPR 2018 Sec. 5.4: Frobenius 0.0446 on its POV-Ray pair)")
+def _benchmark(args) -> int:
+    from .._checks import CatadioptricError
+    from .benchmark import run_benchmark
+    from .benchmark_spec import load_benchmark_spec, quick_spec
+
+    spec_path = args.spec or DEFAULT_SPEC
+    if args.spec is None and not os.path.exists(spec_path):
+        raise CatadioptricError(f"--spec: no {DEFAULT_SPEC} here (run from the repository root or give --spec FILE)")
+    try:
+        spec = load_benchmark_spec(spec_path)
+    except CatadioptricError as exc:
+        raise CatadioptricError(f"--spec: {exc}") from None
+    if args.quick:
+        spec = quick_spec(spec)
+    out = check_out_dir(args.out)
+    agg = run_benchmark(spec, out, workers=args.workers, progress=not args.no_progress, command=_command(args))
+    for name, a in agg.items():
+        for noise, e in a["noise"].items():
+            ex, ce = e["exact"], e["central"]
+            med = lambda q: "-" if q["median"] is None else f"{q['median']:.3f}"
+            print(f"{name:22s} {float(noise):4.1f} px: rotation exact {med(ex['rotation_deg'])} deg, central "
+                  f"{med(ce['rotation_deg'])} deg; ambiguous {ex['ambiguous']}/{ex['draws']}, failed {ex['failed']}, "
+                  f"wrong and unflagged {ex['over_10deg_unflagged']}")
+    print(f"wrote {os.path.join(out, 'report.md')}")
+    return 0
 
 
 def _noise_sweep(args) -> int:
     from . import noise_sweep as ns
     from .report import write_report
 
+    out = check_out_dir(args.out)
     res = ns.run(trials=args.trials, seed=args.seed)
     cmd = f"catadioptric validate noise-sweep --out {args.out} --trials {args.trials} --seed {args.seed}"
-    paths = write_report(args.out, res, ns.markdown(res, cmd), {"noise_sweep": ns.figure(res)})
+    paths = write_report(out, res, ns.markdown(res, cmd), {"noise_sweep": ns.figure(res)})
     for name, r in res["rigs"].items():
         print(f"  {name:22s} direction error at 10 px: {r['direction_error_deg'][-1]:.3f} deg; rotation |dR|_F at "
               f"10 px: {r['rotation_error_frobenius'][-1]:.4f}")
@@ -50,19 +123,39 @@ def _noise_sweep(args) -> int:
 
 
 def register(sub) -> None:
-    p = sub.add_parser("validate", help="experiments on rendered datasets (relative rotation, ...)")
+    p = sub.add_parser("validate", help="experiments on rendered datasets (relative pose, benchmark, noise sweeps)")
     vs = p.add_subparsers(dest="experiment", required=True)
-    r = vs.add_parser("relative-rotation", help="relative rotation of a two-view dataset from vanishing points")
+    r = vs.add_parser("relative-pose", help="relative pose (rotation, metric translation) of two views of a dataset",
+                      description="Relative pose of two views from the pixels of their labelled lines, by the exact "
+                                  "model and by the fair central baseline, against the ground truth.")
     r.add_argument("dataset", metavar="DATASET", help="dataset folder written by `catadioptric render`")
+    r.add_argument("--views", nargs=2, metavar=("A", "B"), help="the two views (default: the first two)")
     r.add_argument("--out", required=True, metavar="DIR", help="report folder")
-    r.add_argument("--noise", type=float, default=2.0, help="Gaussian pixel noise added to line pixels (default 2)")
-    r.add_argument("--seed", type=int, default=0, help="first noise seed (default 0)")
-    r.add_argument("--draws", type=int, default=1, help="noise draws (seeds seed, seed+1, ...; default 1)")
-    r.add_argument("--max-pixels", type=int, default=150, help="pixels per line at most (default 150)")
-    r.add_argument("--no-central", action="store_true", help="skip the central (unified) approximation")
-    r.set_defaults(func=_relative_rotation, command_line=None)
+    r.add_argument("--noise", type=nonnegative_float, nargs="+", default=[2.0], metavar="PX",
+                   help="Gaussian pixel noise levels added to the line pixels (default 2, as the paper)")
+    r.add_argument("--draws", type=positive_int, default=1, help="noise draws per level (default 1)")
+    r.add_argument("--seed", type=int, default=0, help="seed of the noise draws (default 0)")
+    r.add_argument("--pixels", choices=["curve", "ridge"], default="curve",
+                   help="line pixels: the exact curve where the label shows the line (default) or the integer "
+                        "ridge of the label band")
+    r.add_argument("--min-pixels", type=positive_int, default=30,
+                   help="lines with fewer pixels are not used (default 30)")
+    r.add_argument("--max-pixels", type=positive_int, default=60,
+                   help="pixels per line and view used, evenly spread (default 60)")
+    r.add_argument("--ends", choices=["unknown", "given"], default="unknown",
+                   help="which end of each family is which: searched (default) or given (matched vanishing "
+                        "points from the ground truth, the paper's assumption)")
+    r.add_argument("--no-central", action="store_true", help="skip the central baseline")
+    r.set_defaults(func=_relative_pose, command_line=None)
+    b = vs.add_parser("benchmark", help="the relative-pose benchmark: render the spec's view pairs, evaluate, report")
+    b.add_argument("--spec", metavar="FILE", help=f"benchmark spec (default {DEFAULT_SPEC})")
+    b.add_argument("--quick", action="store_true", help="the spec's [quick] size (what CI runs)")
+    b.add_argument("--out", required=True, metavar="DIR", help="output folder (datasets, per-pair results, report)")
+    b.add_argument("--workers", type=positive_int, default=1, help="processes (default 1)")
+    b.add_argument("--no-progress", action="store_true", help="no progress bars")
+    b.set_defaults(func=_benchmark, command_line=None)
     n = vs.add_parser("noise-sweep", help="synthetic noise sweeps of VPs, directions and rotation (paper Figs. 5-6)")
     n.add_argument("--out", required=True, metavar="DIR", help="report folder")
-    n.add_argument("--trials", type=int, default=100, help="trials per noise level (default 100)")
+    n.add_argument("--trials", type=positive_int, default=100, help="trials per noise level (default 100)")
     n.add_argument("--seed", type=int, default=0, help="seed (default 0)")
     n.set_defaults(func=_noise_sweep)

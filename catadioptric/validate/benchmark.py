@@ -1,0 +1,141 @@
+"""The relative-pose benchmark: render the spec's view pairs (resumable datasets), evaluate every
+pair at every noise level and draw (resumable, one result file per pair, a process pool with
+``workers``), and aggregate the report (JSON, Markdown tables, plots).
+
+Layout of the output folder ``out``::
+
+    out/datasets/<config>_<renderer>/   the rendered views (catadioptric render format)
+    out/results/<config>/pNN.json       one pair's draws (written atomically; reruns skip them)
+    out/report.json, report.md, *.png   the aggregate (written last)
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import sys
+import time
+
+from .._checks import CatadioptricError
+from .._io import atomic_write_json, jsonable
+from .benchmark_spec import pairs_of
+
+__all__ = ["render_benchmark", "evaluate_benchmark", "run_benchmark", "dataset_folder"]
+
+
+def dataset_folder(out: str, config: str, renderer: str) -> str:
+    return os.path.join(out, "datasets", f"{config}_{renderer}")
+
+
+def _scene(spec):
+    from ..scenes import build_scene, spec_path
+
+    return build_scene(spec_path(spec["scene"]))
+
+
+def render_benchmark(spec: dict, out: str, *, workers: int = 1, progress: bool = True) -> dict:
+    """Render every configuration's pairs (one dataset per configuration and renderer; views
+    ``pNNA``/``pNNB``). Finished views are skipped. Returns ``{(config, renderer): manifest}``."""
+    from ..cliargs import parse_resolution
+    from ..render.dataset import render_dataset
+    from ..rigspec import load_rig
+
+    w, h = parse_resolution(spec["resolution"], "resolution")
+    scene = _scene(spec)
+    manifests = {}
+    for config in spec["configs"]:
+        cam = load_rig(config["rig"], width=w, height=h)
+        by_renderer: dict = {}
+        for p in pairs_of(spec, config):
+            by_renderer.setdefault(p.renderer, []).extend(zip(p.names, p.poses))
+        for renderer, views in by_renderer.items():
+            folder = dataset_folder(out, config["name"], renderer)
+            if progress:
+                print(f"[{config['name']} / {renderer}] {len(views)} views -> {folder}", file=sys.stderr)
+            manifests[(config["name"], renderer)] = render_dataset(
+                scene, views, cam, folder, renderer=renderer, quality=spec["quality"], workers=workers,
+                rig={"name": config["rig"]}, progress=progress)
+    return manifests
+
+
+def _fingerprint(spec: dict, config: dict, pair) -> str:
+    keys = ("scene", "resolution", "quality", "seed", "noise_px", "draws", "pixels", "min_pixels", "max_pixels",
+            "placement")
+    d = {k: spec[k] for k in keys} | {"config": config, "pair": pair.index}
+    return hashlib.sha256(json.dumps(jsonable(d), sort_keys=True).encode()).hexdigest()
+
+
+def _evaluate_pair(args) -> dict:
+    spec, config, pair, folder, path, fp = args
+    from .relative_pose import evaluate_pair
+
+    t0 = time.perf_counter()
+    res = evaluate_pair(folder, pair.names, noise_levels=spec["noise_px"], draws=spec["draws"],
+                        seed=[spec["seed"], pair.index], pixels=spec["pixels"], min_pixels=spec["min_pixels"],
+                        max_pixels=spec["max_pixels"])
+    res.update({"config": config["name"], "rig": config["rig"], "pair": pair.index, "renderer": pair.renderer,
+                "fingerprint": fp, "seconds": time.perf_counter() - t0})
+    atomic_write_json(path, jsonable(res))
+    return res
+
+
+def evaluate_benchmark(spec: dict, out: str, *, workers: int = 1, progress: bool = True) -> list[dict]:
+    """Evaluate every pair (resuming: a pair whose result file has this spec's fingerprint is
+    read back, not recomputed). Returns the pair results in spec order."""
+    tasks, results = [], {}
+    for config in spec["configs"]:
+        for p in pairs_of(spec, config):
+            path = os.path.join(out, "results", config["name"], f"p{p.index:02d}.json")
+            fp = _fingerprint(spec, config, p)
+            key = (config["name"], p.index)
+            try:
+                with open(path) as f:
+                    old = json.load(f)
+                if old.get("fingerprint") == fp:
+                    results[key] = old
+                    continue
+            except (OSError, ValueError):
+                pass
+            os.makedirs(os.path.dirname(path), exist_ok=True)
+            tasks.append((key, (spec, config, p, dataset_folder(out, config["name"], p.renderer), path, fp)))
+    bar = None
+    if progress and tasks:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(tasks), unit="pair", desc="evaluate", file=sys.stderr, dynamic_ncols=True)
+    try:
+        if workers <= 1 or len(tasks) <= 1:
+            for key, a in tasks:
+                results[key] = _evaluate_pair(a)
+                if bar is not None:
+                    bar.update(1)
+        else:
+            import multiprocessing as mp
+            from concurrent.futures import ProcessPoolExecutor, as_completed
+
+            with ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=mp.get_context("spawn")) as ex:
+                futs = {ex.submit(_evaluate_pair, a): key for key, a in tasks}
+                for f in as_completed(futs):
+                    results[futs[f]] = f.result()
+                    if bar is not None:
+                        bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+    order = [(c["name"], p.index) for c in spec["configs"] for p in pairs_of(spec, c)]
+    return [results[k] for k in order]
+
+
+def run_benchmark(spec: dict, out: str, *, workers: int = 1, progress: bool = True, command: str = "") -> dict:
+    """Render, evaluate and write the report; returns the aggregate."""
+    from .benchmark_report import write_benchmark_report
+
+    if not spec["configs"]:
+        raise CatadioptricError("spec: expected at least one configuration")
+    t0 = time.perf_counter()
+    render_benchmark(spec, out, workers=workers, progress=progress)
+    t1 = time.perf_counter()
+    results = evaluate_benchmark(spec, out, workers=workers, progress=progress)
+    t2 = time.perf_counter()
+    return write_benchmark_report(spec, results, out, command=command,
+                                  timing={"render_seconds": t1 - t0, "evaluate_seconds": t2 - t1})
