@@ -309,10 +309,12 @@ def magnitudes(cam, rng, near):
     S = rays.directions[ok]
     k = 10.0 ** rng.uniform(-300, 300, (len(S), 1))
     v1, v2 = cam.vanishing_points(S), cam.vanishing_points(S * k)
-    check(np.array_equal(v1.valid, v2.valid), f"vanishing_points valid changes with the length of the directions "
-                                              f"(lengths {k[:2, 0].tolist()})")
-    du = np.nanmax(np.abs(v1.uv - v2.uv), initial=0.0)
-    check(du < 1e-9, f"vanishing pixels change by {du:.3g} px with the length of the directions")
+    # a unit vector's last bit depends on the length it came from: ill-conditioned rows may move
+    bad = [i for i in np.nonzero(np.any(v1.valid != v2.valid, axis=1))[0] if not ill_conditioned(cam, S[i], w=0)]
+    check(not bad, f"vanishing_points valid changes with the length of the directions (lengths {k[:2, 0].tolist()})")
+    du = np.nanmax(np.abs(v1.uv - v2.uv), axis=(1, 2), initial=0.0)
+    bad = [i for i in np.nonzero(du >= 1e-9)[0] if not ill_conditioned(cam, S[i], w=0)]
+    check(not bad, f"vanishing pixels change by {du.max():.3g} px with the length of the directions")
     # far points: their images reach the vanishing points
     L = cam.mirror.scale
     lam = L * 10.0 ** rng.uniform(9, 300, len(S))
