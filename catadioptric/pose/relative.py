@@ -314,7 +314,9 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
     Cb = np.array([eb[k].cov for k in keys])
     sigmas = [e.sigma for e in list(ea.values()) + list(eb.values()) if np.isfinite(e.sigma)]
     sigma_est = float(np.median(sigmas)) if sigmas else f_scale
-    sigma_cost = pixel_sigma if pixel_sigma is not None else max(sigma_est, 1e-3 * f_scale)
+    # the robust losses' scale: the pixel noise, but not below a tenth of f_scale (exact pixels would
+    # otherwise make every pixel an outlier of a loss a thousandth of a pixel wide)
+    sigma_cost = pixel_sigma if pixel_sigma is not None else max(sigma_est, 0.1 * f_scale)
     cands = sign_candidates(a, b, Ca, Cb, signs=np.ones(len(keys)) if ends is not None else None)
     # stage 1: directions and the rays where lines meet, for every candidate (cheap)
     rays = meeting_rays(view_a, view_b, ea, eb, keys)

@@ -2,11 +2,11 @@
 pair at every noise level and draw (resumable, one result file per pair, a process pool with
 ``workers``), and aggregate the report (JSON, Markdown tables, plots).
 
-Layout of the output folder ``out``::
+Layout: the working folder ``data`` (large, not for committing) and the report folder ``out``::
 
-    out/datasets/<config>_<renderer>/   the rendered views (catadioptric render format)
-    out/results/<config>/pNN.json       one pair's draws (written atomically; reruns skip them)
-    out/report.json, report.md, *.png   the aggregate (written last)
+    data/datasets/<config>_<renderer>/  the rendered views (catadioptric render format)
+    data/results/<config>/pNN.json      one pair's draws (written atomically; reruns skip them)
+    out/report.json, report.md, *.png   the aggregate, every pair's draws included (written last)
 """
 from __future__ import annotations
 
@@ -23,8 +23,8 @@ from .benchmark_spec import pairs_of
 __all__ = ["render_benchmark", "evaluate_benchmark", "run_benchmark", "dataset_folder"]
 
 
-def dataset_folder(out: str, config: str, renderer: str) -> str:
-    return os.path.join(out, "datasets", f"{config}_{renderer}")
+def dataset_folder(data: str, config: str, renderer: str) -> str:
+    return os.path.join(data, "datasets", f"{config}_{renderer}")
 
 
 def _scene(spec):
@@ -33,7 +33,7 @@ def _scene(spec):
     return build_scene(spec_path(spec["scene"]))
 
 
-def render_benchmark(spec: dict, out: str, *, workers: int = 1, progress: bool = True) -> dict:
+def render_benchmark(spec: dict, data: str, *, workers: int = 1, progress: bool = True) -> dict:
     """Render every configuration's pairs (one dataset per configuration and renderer; views
     ``pNNA``/``pNNB``). Finished views are skipped. Returns ``{(config, renderer): manifest}``."""
     from ..cliargs import parse_resolution
@@ -49,7 +49,7 @@ def render_benchmark(spec: dict, out: str, *, workers: int = 1, progress: bool =
         for p in pairs_of(spec, config):
             by_renderer.setdefault(p.renderer, []).extend(zip(p.names, p.poses))
         for renderer, views in by_renderer.items():
-            folder = dataset_folder(out, config["name"], renderer)
+            folder = dataset_folder(data, config["name"], renderer)
             if progress:
                 print(f"[{config['name']} / {renderer}] {len(views)} views -> {folder}", file=sys.stderr)
             manifests[(config["name"], renderer)] = render_dataset(
@@ -79,13 +79,13 @@ def _evaluate_pair(args) -> dict:
     return res
 
 
-def evaluate_benchmark(spec: dict, out: str, *, workers: int = 1, progress: bool = True) -> list[dict]:
+def evaluate_benchmark(spec: dict, data: str, *, workers: int = 1, progress: bool = True) -> list[dict]:
     """Evaluate every pair (resuming: a pair whose result file has this spec's fingerprint is
     read back, not recomputed). Returns the pair results in spec order."""
     tasks, results = [], {}
     for config in spec["configs"]:
         for p in pairs_of(spec, config):
-            path = os.path.join(out, "results", config["name"], f"p{p.index:02d}.json")
+            path = os.path.join(data, "results", config["name"], f"p{p.index:02d}.json")
             fp = _fingerprint(spec, config, p)
             key = (config["name"], p.index)
             try:
@@ -97,7 +97,7 @@ def evaluate_benchmark(spec: dict, out: str, *, workers: int = 1, progress: bool
             except (OSError, ValueError):
                 pass
             os.makedirs(os.path.dirname(path), exist_ok=True)
-            tasks.append((key, (spec, config, p, dataset_folder(out, config["name"], p.renderer), path, fp)))
+            tasks.append((key, (spec, config, p, dataset_folder(data, config["name"], p.renderer), path, fp)))
     bar = None
     if progress and tasks:
         from tqdm import tqdm
@@ -126,16 +126,19 @@ def evaluate_benchmark(spec: dict, out: str, *, workers: int = 1, progress: bool
     return [results[k] for k in order]
 
 
-def run_benchmark(spec: dict, out: str, *, workers: int = 1, progress: bool = True, command: str = "") -> dict:
-    """Render, evaluate and write the report; returns the aggregate."""
+def run_benchmark(spec: dict, out: str, *, data: str | None = None, workers: int = 1, progress: bool = True,
+                  command: str = "") -> dict:
+    """Render, evaluate and write the report into ``out``; the datasets and per-pair results go to
+    ``data`` (default ``out``). Returns the aggregate."""
+    data = out if data is None else data
     from .benchmark_report import write_benchmark_report
 
     if not spec["configs"]:
         raise CatadioptricError("spec: expected at least one configuration")
     t0 = time.perf_counter()
-    render_benchmark(spec, out, workers=workers, progress=progress)
+    render_benchmark(spec, data, workers=workers, progress=progress)
     t1 = time.perf_counter()
-    results = evaluate_benchmark(spec, out, workers=workers, progress=progress)
+    results = evaluate_benchmark(spec, data, workers=workers, progress=progress)
     t2 = time.perf_counter()
     return write_benchmark_report(spec, results, out, command=command,
                                   timing={"render_seconds": t1 - t0, "evaluate_seconds": t2 - t1})

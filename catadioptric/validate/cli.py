@@ -95,7 +95,9 @@ def _benchmark(args) -> int:
     if args.quick:
         spec = quick_spec(spec)
     out = check_out_dir(args.out)
-    agg = run_benchmark(spec, out, workers=args.workers, progress=not args.no_progress, command=_command(args))
+    data = check_out_dir(args.data, "--data") if args.data else out
+    agg = run_benchmark(spec, out, data=data, workers=args.workers, progress=not args.no_progress,
+                        command=_command(args))
     for name, a in agg.items():
         for noise, e in a["noise"].items():
             ex, ce = e["exact"], e["central"]
@@ -150,7 +152,9 @@ def register(sub) -> None:
     b = vs.add_parser("benchmark", help="the relative-pose benchmark: render the spec's view pairs, evaluate, report")
     b.add_argument("--spec", metavar="FILE", help=f"benchmark spec (default {DEFAULT_SPEC})")
     b.add_argument("--quick", action="store_true", help="the spec's [quick] size (what CI runs)")
-    b.add_argument("--out", required=True, metavar="DIR", help="output folder (datasets, per-pair results, report)")
+    b.add_argument("--out", required=True, metavar="DIR", help="report folder")
+    b.add_argument("--data", metavar="DIR", help="working folder for the rendered datasets and per-pair results "
+                                                 "(default: --out)")
     b.add_argument("--workers", type=positive_int, default=1, help="processes (default 1)")
     b.add_argument("--no-progress", action="store_true", help="no progress bars")
     b.set_defaults(func=_benchmark, command_line=None)

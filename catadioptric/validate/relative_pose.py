@@ -146,7 +146,12 @@ def _evaluate_pair(dataset, names, noise_levels, draws, seed, pixels, min_pixels
                     res = relative_pose(views[0], views[1], ends=hints if ends == "given" else None, seed=k,
                                         decisive=decisive)
                 except CatadioptricError as exc:
-                    rec[label] = {"error": str(exc), "seconds": time.perf_counter() - t0}
+                    msg = str(exc)
+                    short = [b.short for b in base]
+                    if any(short):
+                        msg += (f"; lines with fewer than {min_pixels} pixels, not used: {short[0]} in {names[0]}, "
+                                f"{short[1]} in {names[1]} (min_pixels, --min-pixels, sets the minimum)")
+                    rec[label] = {"error": msg, "seconds": time.perf_counter() - t0}
                     continue
                 rec[label] = _record(res, R_gt, t_gt, cen[0], cen[1], time.perf_counter() - t0)
             # the report's schema: the exact model's fields at the top of each draw
