@@ -62,7 +62,8 @@ def run(scene_name="urban_street", n_views=6, size=(640, 480), renderers=("mitsu
     from catadioptric.render.dataset import ViewTask, render_dataset, render_view_files
     from catadioptric.render.mitsuba import mitsuba_variant
     from catadioptric.render.povray import povray_version
-    from catadioptric.render.tracer import scene_digest
+    from catadioptric.render.groundtruth import ground_truth
+    from catadioptric.render.tracer import scene_digest, trace_rays
     from catadioptric.scenes import build_scene, scene_rig
 
     load_before = os.getloadavg()
@@ -77,6 +78,19 @@ def run(scene_name="urban_street", n_views=6, size=(640, 480), renderers=("mitsu
                      "build_seconds": t_build},
            "image": list(size), "quality": q, "line_images": line_images, "mitsuba_variant": mitsuba_variant(), "povray": povray_version(),
            "per_view": {}, "dataset": {}}
+    # the ground truth alone (tracer + line images, no renderer beside it), first view twice (warm-up)
+    alone = []
+    for name, pose in [views[0]] + views[:3]:
+        t, c = time.perf_counter(), cpu_seconds()
+        traced = trace_rays(scene, cam, pose)
+        t1 = time.perf_counter()
+        ground_truth(scene, cam, pose, view=name, traced=traced, line_images=line_images)
+        alone.append({"view": name, "trace": t1 - t, "groundtruth": time.perf_counter() - t1,
+                      "cpu_seconds": cpu_seconds() - c})
+    out["ground_truth_alone"] = {k: float(np.median([x[k] for x in alone[1:]]))
+                                 for k in ("trace", "groundtruth", "cpu_seconds")} | {"views": alone}
+    print("  ground truth alone: " + " ".join(f"{k} {v:.2f}" for k, v in out["ground_truth_alone"].items()
+                                              if k != "views"), flush=True)
     with tempfile.TemporaryDirectory() as tmp:
         for r in renderers:
             rows = []
