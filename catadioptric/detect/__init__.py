@@ -1,0 +1,30 @@
+"""Lines and families from one image of a catadioptric rig, with no labels.
+
+``detect_lines(image, cam, **options) -> DetectedLines``: sub-pixel edges in the mirror's image
+region, the two edges of each line tube paired into its centre line, chains, line curves (the
+plane holding each line's rays, robust along chains, pieces of one line merged) and families of
+parallel lines; ``DetectedLines.to_view_lines()`` gives the relative-pose estimator's input.
+``evaluate_view`` scores a detection against a rendered view's labels. See docs/detect.md.
+
+| stage | module |
+|---|---|
+| grey levels, noise, denoising | `image.py` |
+| the mirror's image region | `region.py` |
+| sub-pixel edges (Canny + parabola across the edge) | `edges.py` |
+| band centres (tube edges paired) and step edges | `centres.py` |
+| chains (linking, resampling) | `chains.py` |
+| the plane model of a line's rays, distances, covariance | `planes.py` |
+| line curves (MSAC along chains, merging) | `curves.py` |
+| families (voting over directions) | `families.py` |
+| the orchestration and options | `detector.py` |
+| the result and its conversions | `result.py` |
+| scores against the labels | `evaluate.py` |
+"""
+from __future__ import annotations
+
+from .detector import DEFAULTS, detect_lines
+from .evaluate import evaluate_view, label_curves
+from .families import Family
+from .result import DetectedLines
+
+__all__ = ["detect_lines", "DetectedLines", "Family", "DEFAULTS", "evaluate_view", "label_curves"]

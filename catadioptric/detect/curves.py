@@ -1,0 +1,223 @@
+"""Line curves from chains: robust plane hypotheses along each chain (MSAC), the chain cut into
+the runs that one line explains, and runs of one line merged.
+
+Model and distances: :mod:`catadioptric.detect.planes` (the plane holding a line's rays, pixel
+distances to first order).
+
+1. **Along a chain.** Hypotheses ``n = d_i x d_j`` from pairs of points of the chain at least
+   ``min_span`` points apart (all such pairs on a grid of the chain, at most ``hypotheses``); a
+   hypothesis's consensus is the longest run of consecutive points within ``threshold`` pixels
+   (gaps of up to ``max_gap`` points bridged), scored by the MSAC sum ``sum(1 - r^2 / thr^2)``.
+   The best run is refitted, re-grown from the refitted plane and kept as a piece when it has
+   ``min_points``; what lies on either side is searched again. A chain that turns a corner or runs
+   through a junction is so cut into the pieces of its lines.
+2. **Merging.** Pieces whose normals are within ``merge_angle_deg`` and which come within
+   ``max_gap`` pixels of each other in the image are candidate pairs (parallel lines of one
+   plane through the rig have one curve: pieces far apart on it may be different lines); a pair is
+   merged when the plane fitted to both explains each within ``threshold`` (the 95th percentile of
+   the distances) and its rms stays below ``0.5 threshold`` plus the pieces' own. The best pair
+   first, until none passes (greedy agglomeration). Two pieces of one 3-D line (broken by an
+   occluder, a window, a gap in the edges) and the band centre and an unpaired edge of one tube
+   so become one line.
+3. **Each line**: its pixels ordered along the curve, its plane normal with covariance (the
+   residual rms, at least ``sigma_floor`` pixels), rms, length.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .planes import Rays, plane_covariance, plane_distances, refine_plane
+
+__all__ = ["LinePiece", "split_chain", "merge_pieces"]
+
+
+@dataclass
+class LinePiece:
+    """Points ``uv (M, 2)`` explained by one plane: their ``rays``, unit ``normal``, ``rms``
+    (pixels), ``sources`` (the chains' indices), ``polarity`` of the chain(s) (0 step edge, +-1 band)."""
+
+    uv: np.ndarray
+    rays: Rays
+    normal: np.ndarray
+    rms: float
+    sources: list
+    polarity: int
+
+    @property
+    def length(self) -> int:
+        return len(self.uv)
+
+
+def _runs(inlier: np.ndarray, max_gap: int) -> list[tuple[int, int]]:
+    """Runs ``[a, b)`` of True in ``inlier`` with gaps of at most ``max_gap`` False bridged."""
+    idx = np.flatnonzero(inlier)
+    if len(idx) == 0:
+        return []
+    cut = np.flatnonzero(np.diff(idx) > max_gap + 1)
+    starts = np.r_[idx[0], idx[cut + 1]]
+    ends = np.r_[idx[cut], idx[-1]] + 1
+    return list(zip(starts.tolist(), ends.tolist()))
+
+
+def _best_run(r: np.ndarray, thr: float, max_gap: int) -> tuple[int, int, float]:
+    inl = r <= thr
+    best = (0, 0, -1.0)
+    for a, b in _runs(inl, max_gap):
+        seg = r[a:b]
+        score = float(np.sum(np.where(seg <= thr, 1.0 - (seg / thr) ** 2, 0.0)))
+        if score > best[2]:
+            best = (a, b, score)
+    return best
+
+
+def _hypotheses(rays: Rays, min_span: int, max_h: int) -> np.ndarray:
+    M = len(rays.d)
+    step = max(1, int(np.ceil(M / np.sqrt(2.0 * max_h))))
+    grid = np.arange(0, M, step)
+    i, j = np.meshgrid(grid, grid, indexing="ij")
+    keep = (j - i) >= min_span
+    i, j = i[keep], j[keep]
+    if len(i) == 0:
+        i, j = np.array([0]), np.array([M - 1])
+    if len(i) > max_h:
+        sel = np.round(np.linspace(0, len(i) - 1, max_h)).astype(int)
+        i, j = i[sel], j[sel]
+    n = np.cross(rays.d[i], rays.d[j])
+    nn = np.linalg.norm(n, axis=1)
+    return n[nn > 1e-12] / nn[nn > 1e-12, None]
+
+
+def split_chain(uv: np.ndarray, rays: Rays, *, threshold: float = 1.0, min_points: int = 12, min_span: int = 6,
+                max_gap: int = 2, hypotheses: int = 60, source: int = 0, polarity: int = 0) -> list[LinePiece]:
+    """The pieces of one ordered chain ``uv (M, 2)`` (rays ``rays``) that single planes explain
+    (module docstring, step 1)."""
+    pieces = []
+    todo = [(0, len(uv))]
+    while todo:
+        a, b = todo.pop()
+        if b - a < min_points:
+            continue
+        sub = rays.take(slice(a, b))
+        if sub.ok.sum() < min_points:
+            continue
+        H = _hypotheses(sub.take(np.flatnonzero(sub.ok)), min(min_span, int(sub.ok.sum()) - 1), hypotheses)
+        if len(H) == 0:
+            continue
+        R = plane_distances(H, sub)
+        best = (0, 0, -1.0, None)
+        for h in range(len(H)):
+            ra, rb, sc = _best_run(R[h], threshold, max_gap)
+            if sc > best[2]:
+                best = (ra, rb, sc, H[h])
+        ra, rb, _, n = best
+        if rb - ra < min_points:
+            continue
+        for _ in range(2):  # refit on the run, regrow the run from the refitted plane
+            n = refine_plane(sub.take(slice(ra, rb)), n)
+            r = plane_distances(n, sub)
+            runs = [(x, y) for x, y in _runs(r <= threshold, max_gap) if x <= (ra + rb) // 2 < y]
+            if not runs:
+                break
+            ra, rb = runs[0]
+        if rb - ra < min_points:
+            continue
+        piece_rays = sub.take(slice(ra, rb))
+        r = plane_distances(n, piece_rays)
+        ok = np.isfinite(r) & (r <= threshold)
+        if ok.sum() >= min_points:
+            rr = piece_rays.take(np.flatnonzero(ok))
+            pieces.append(LinePiece(uv=uv[a + ra: a + rb][ok], rays=rr, normal=n,
+                                    rms=float(np.sqrt(np.mean(r[ok] ** 2))), sources=[source], polarity=polarity))
+        todo.append((a, a + ra))
+        todo.append((a + rb, b))
+    return pieces
+
+
+def _concat_rays(parts: list[Rays]) -> Rays:
+    return Rays(*(np.concatenate([getattr(p, f) for p in parts]) for f in ("uv", "d", "Jd", "ok")))
+
+
+def _joint(p: LinePiece, q: LinePiece, threshold: float):
+    """The plane of two pieces together, its rms and whether it explains both."""
+    rays = _concat_rays([p.rays, q.rays])
+    w = np.r_[np.full(p.length, 1.0), np.full(q.length, 1.0)]
+    n0 = p.normal if p.length >= q.length else q.normal
+    n = refine_plane(rays, n0)
+    r = plane_distances(n, rays)
+    rp, rq = r[: p.length], r[p.length:]
+    ok = (np.percentile(rp, 95) <= threshold) and (np.percentile(rq, 95) <= threshold)
+    rms = float(np.sqrt(np.average(r**2, weights=w)))
+    ok = ok and rms <= 0.5 * threshold + max(p.rms, q.rms)
+    return ok, n, rms, rays
+
+
+def _gap(p: LinePiece, q: LinePiece) -> float:
+    """The smallest image distance between a point of ``p`` and one of ``q`` (pixels)."""
+    from scipy.spatial import cKDTree
+
+    return float(cKDTree(q.uv).query(p.uv)[0].min())
+
+
+def merge_pieces(pieces: list[LinePiece], *, threshold: float = 1.0, merge_angle_deg: float = 10.0,
+                 max_gap: float = 20.0) -> list[LinePiece]:
+    """Pieces of one line merged (module docstring, step 2)."""
+    pieces = list(pieces)
+    if len(pieces) < 2:
+        return pieces
+    cos_max = np.cos(np.radians(merge_angle_deg))
+    alive = [True] * len(pieces)
+    cache: dict = {}
+
+    def test(i, j):
+        key = (i, j)
+        if key not in cache:
+            if _gap(pieces[i], pieces[j]) > max_gap:
+                cache[key] = (False, None, np.inf, None)
+            else:
+                cache[key] = _joint(pieces[i], pieces[j], threshold)
+        return cache[key]
+
+    while True:
+        idx = [k for k in range(len(pieces)) if alive[k]]
+        if len(idx) < 2:
+            break
+        N = np.array([pieces[k].normal for k in idx])
+        c = np.abs(N @ N.T)
+        best = None
+        for a in range(len(idx)):
+            for b in np.flatnonzero(c[a, a + 1:] >= cos_max) + a + 1:
+                i, j = idx[a], idx[int(b)]
+                ok, n, rms, rays = test(i, j)
+                if ok and (best is None or rms < best[0]):
+                    best = (rms, i, j, n, rays)
+        if best is None:
+            break
+        rms, i, j, n, rays = best
+        p, q = pieces[i], pieces[j]
+        pieces.append(LinePiece(uv=np.concatenate([p.uv, q.uv]), rays=rays, normal=n, rms=rms,
+                                sources=p.sources + q.sources, polarity=p.polarity if p.length >= q.length
+                                else q.polarity))
+        alive[i] = alive[j] = False
+        alive.append(True)
+    return [p for p, a in zip(pieces, alive) if a]
+
+
+def order_along(piece: LinePiece) -> np.ndarray:
+    """Indices ordering the piece's points along its curve: by the angle of their rays in the plane."""
+    e1 = piece.rays.d[0] - (piece.rays.d[0] @ piece.normal) * piece.normal
+    e1 /= max(np.linalg.norm(e1), 1e-300)
+    e2 = np.cross(piece.normal, e1)
+    ang = np.arctan2(piece.rays.d @ e2, piece.rays.d @ e1)
+    # unwrap about the largest gap so that a curve crossing +-pi stays in one piece
+    o = np.argsort(ang)
+    a = ang[o]
+    gaps = np.diff(np.r_[a, a[0] + 2 * np.pi])
+    k = int(np.argmax(gaps))
+    return np.r_[o[k + 1:], o[: k + 1]]
+
+
+def line_covariance(piece: LinePiece, sigma_floor: float) -> np.ndarray:
+    """The normal's covariance with the pixel noise taken as the piece's rms, at least ``sigma_floor``."""
+    return plane_covariance(piece.normal, piece.rays, max(piece.rms, sigma_floor))

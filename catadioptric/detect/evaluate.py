@@ -1,0 +1,164 @@
+"""Detected lines scored against a rendered view's labels (the labels are used here only).
+
+For a dataset view (:class:`catadioptric.DatasetView`): each labelled line's visible exact curve
+(``view["curves"]`` where the label image shows the line, one point per pixel of arc length:
+:func:`catadioptric.validate.observations.curve_pixels`) is the truth.
+
+* **Recovered** (per labelled line, and over all labelled pixels of the lines with at least
+  ``min_label_pixels``): the fraction of its curve points within ``tolerance`` pixels of a pixel
+  of some detected line.
+* **Line precision**: a detected line matches the labelled line nearest most of its pixels when
+  at least ``match_fraction`` of them lie within ``tolerance`` of that line's curve; precision
+  is the fraction of detected lines that match one (any labelled line, short ones included):
+  ``line_precision_labels`` against the curves where the label image shows the lines,
+  ``line_precision`` also counting the visible curves whose tube covers no pixel centre (thinner
+  than a pixel near the mirror's rim: real lines the label image misses). The lines matched to
+  label-shown curves give the detector's accuracy (pixel distances: median, rms).
+* **Families**: the true families of the view are those with at least two labelled lines of
+  ``min_label_pixels``; a detected family matches a true one when the angle between their
+  directions (either sign) is at most ``max(angle_deg, sigmas x its standard error)``. Precision:
+  detected families that match a true one; recall: true families matched by a detected one.
+  Line assignment: the fraction of the detected lines assigned to a family whose matched true
+  family is the family of the line's matched labelled line.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["label_curves", "visible_curves", "evaluate_view"]
+
+
+def label_curves(view, min_points: int = 2) -> list[dict]:
+    """The visible exact curve of every labelled line of ``view``: dicts with ``segment``,
+    ``family``, ``label``, ``uv (M, 2)``."""
+    from ..validate.observations import curve_pixels
+
+    labels, curves = view["labels"], view["curves"]
+    out = []
+    for ln in view["lines"]:
+        lab = int(ln.get("label", 0) or 0)
+        if lab <= 0:
+            continue
+        uv = curve_pixels(curves, labels, int(ln["index"]), lab)
+        if len(uv) >= min_points:
+            out.append({"segment": int(ln["index"]), "family": int(ln["family"]), "label": lab, "uv": uv})
+    return out
+
+
+def visible_curves(view) -> list[dict]:
+    """The exact curve of every labelled line of ``view`` where it is visible (not hidden by
+    another object) and on the image, whether or not its tube covers a pixel centre there (a
+    tube thinner than a pixel, seen at a grazing angle near the mirror's rim, leaves no label):
+    dicts with ``segment``, ``family``, ``uv``."""
+    fam = {int(ln["index"]): int(ln["family"]) for ln in view["lines"] if int(ln.get("label", 0) or 0) > 0}
+    out = []
+    for c in view["curves"]:
+        seg = int(c["segment"])
+        ok = np.asarray(c["visible"], bool) & np.asarray(c["in_image"], bool)
+        if seg in fam and ok.sum() >= 2:
+            out.append({"segment": seg, "family": fam[seg], "uv": np.asarray(c["uv"])[ok]})
+    return out
+
+
+def _angle_deg(a, b) -> float:
+    c = abs(float(np.dot(a, b)) / (np.linalg.norm(a) * np.linalg.norm(b)))
+    return float(np.degrees(np.arccos(min(1.0, c))))
+
+
+def _match_lines(det_uv, truth, tolerance, match_fraction):
+    """Per detected line the index of the curve of ``truth`` that holds at least ``match_fraction``
+    of its pixels within ``tolerance`` (-1 if none), and those pixels' distances to it."""
+    from scipy.spatial import cKDTree
+
+    match = np.full(len(det_uv), -1, dtype=np.int64)
+    dists = []
+    if not (det_uv and truth):
+        return match, dists
+    pts = np.concatenate([t["uv"] for t in truth])
+    owner = np.concatenate([np.full(len(t["uv"]), k) for k, t in enumerate(truth)])
+    tree = cKDTree(pts)
+    for i, u in enumerate(det_uv):
+        d, j = tree.query(u, distance_upper_bound=tolerance + 1e-9)
+        near = np.isfinite(d)
+        if not near.any():
+            continue
+        k = int(np.bincount(owner[j[near]]).argmax())
+        # distance to that curve alone (the nearest point of another curve may be closer)
+        dk, _ = cKDTree(truth[k]["uv"]).query(u)
+        ok = dk <= tolerance
+        if ok.mean() >= match_fraction:
+            match[i] = k
+            dists.append(dk[ok])
+    return match, dists
+
+
+def evaluate_view(det, view, *, tolerance: float = 1.5, min_label_pixels: int = 30, match_fraction: float = 0.5,
+                  angle_deg: float = 1.0, sigmas: float = 3.0) -> dict:
+    """Scores of ``det`` (:class:`~catadioptric.detect.DetectedLines`) against the labels of
+    ``view`` (module docstring). Returns a JSON-ready dict."""
+    from scipy.spatial import cKDTree
+
+    truth = label_curves(view)
+    long_ = [t for t in truth if len(t["uv"]) >= min_label_pixels]
+    det_uv = [np.asarray(u) for u in det.uv]
+    res = {"tolerance_px": tolerance, "min_label_pixels": min_label_pixels,
+           "labelled_lines": len(long_), "labelled_pixels": int(sum(len(t["uv"]) for t in long_)),
+           "detected_lines": len(det_uv), "detected_pixels": int(sum(len(u) for u in det_uv))}
+    # recovered
+    if det_uv and long_:
+        tree = cKDTree(np.concatenate(det_uv))
+        per_line = []
+        hit_all = 0
+        for t in long_:
+            d, _ = tree.query(t["uv"], distance_upper_bound=tolerance + 1e-9)
+            h = int(np.sum(np.isfinite(d)))
+            hit_all += h
+            per_line.append(h / len(t["uv"]))
+        res["recovered_fraction"] = hit_all / res["labelled_pixels"]
+        res["lines_recovered_half"] = float(np.mean(np.array(per_line) >= 0.5))
+    else:
+        res["recovered_fraction"] = 0.0 if long_ else None
+        res["lines_recovered_half"] = 0.0 if long_ else None
+    # line precision: against the label-shown curves, and against the visible exact curves
+    match, dists = _match_lines(det_uv, truth, tolerance, match_fraction)
+    res["line_precision_labels"] = float(np.mean(match >= 0)) if len(det_uv) else None
+    vis = visible_curves(view)
+    vmatch, _ = _match_lines(det_uv, vis, tolerance, match_fraction)
+    res["line_precision"] = float(np.mean((vmatch >= 0) | (match >= 0))) if len(det_uv) else None
+    res["matched_lines"] = int(np.sum(match >= 0))
+    res["matched_segments"] = len({truth[k]["segment"] for k in match if k >= 0})
+    if dists:
+        allx = np.concatenate(dists)
+        res["distance_median_px"] = float(np.median(allx))
+        res["distance_rms_px"] = float(np.sqrt(np.mean(allx**2)))
+    # families
+    fam_dirs = {int(f["index"]): np.asarray(f["direction_M"], float) for f in view["families"]}
+    count = {}
+    for t in long_:
+        count[t["family"]] = count.get(t["family"], 0) + 1
+    present = sorted(f for f, n in count.items() if n >= 2)
+    det_match = []
+    for fam in det.families:
+        best, best_a = None, np.inf
+        for f, s in fam_dirs.items():
+            a = _angle_deg(fam.direction, s)
+            if a < best_a:
+                best, best_a = f, a
+        tol = max(angle_deg, sigmas * fam.std_deg)
+        det_match.append({"true_family": best if best_a <= tol else None, "angle_deg": best_a, "tolerance_deg": tol,
+                          "lines": len(fam.lines), "pixels": fam.pixels})
+    matched_true = {m["true_family"] for m in det_match if m["true_family"] is not None}
+    res["families_true"] = present
+    res["families_detected"] = det_match
+    res["family_precision"] = (float(np.mean([m["true_family"] is not None for m in det_match]))
+                               if det_match else None)
+    res["family_recall"] = (len(matched_true & set(present)) / len(present)) if present else None
+    # line assignment: a detected line's family against its labelled line's family
+    assigned = [(i, int(det.family[i])) for i in range(len(det_uv)) if det.family[i] >= 0 and match[i] >= 0]
+    if assigned:
+        good = [det_match[f]["true_family"] == truth[match[i]]["family"] for i, f in assigned]
+        res["assignment_accuracy"] = float(np.mean(good))
+    else:
+        res["assignment_accuracy"] = None
+    res["assigned_fraction"] = float(np.mean(det.family >= 0)) if len(det_uv) else None
+    return res

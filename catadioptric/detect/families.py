@@ -1,0 +1,146 @@
+"""Families of parallel lines in one view: lines grouped by direction.
+
+Each line ``i`` is known by the plane holding its rays (unit normal ``n_i``, covariance ``C_i``,
+:mod:`catadioptric.detect.planes`); a direction ``s`` is that of line ``i`` only if
+``n_i . s = 0``, so parallel lines' planes meet along their common direction (for a central rig
+exactly; for a non-central one to the small ratio of the mirror's size to the lines' distance).
+Line ``i`` agrees with ``s`` when
+
+    chi2_i(s) = (n_i . s)^2 / (s^T C_i s + sin(angle_floor)^2) <= chi2_max
+
+(``angle_floor`` covers what the covariance does not: the detector's own biases, and for a
+non-central rig the model's). Directions are voted for:
+
+1. hypotheses ``s = n_i x n_j`` from pairs of the ``max_seed_lines`` longest lines (planes less
+   than ``min_seed_angle_deg`` apart give no direction);
+2. each hypothesis is scored by the pixels of the lines that agree with it, the best one is
+   refined (:func:`catadioptric.linefit.direction_from_planes`, covariance-weighted, on the
+   lines that agree) and its lines are taken out; repeated while a hypothesis gathers
+   ``min_lines`` lines (sequential RANSAC);
+3. every line is then assigned to the family it agrees with, if exactly one: a line that agrees
+   with none, or with several (a short line, a line whose plane holds two families' directions,
+   e.g. a horizontal line at the height of the rig), stays unassigned (family -1); families left
+   with fewer than ``min_lines`` lines are dropped and the rest refitted.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Family", "group_families"]
+
+
+@dataclass
+class Family:
+    """One family of a view: unit ``direction`` (sign arbitrary) with ``cov (3, 3)``, ``lines``
+    (indices), ``pixels`` (their total)."""
+
+    direction: np.ndarray
+    cov: np.ndarray
+    lines: list
+    pixels: int
+
+    @property
+    def std_deg(self) -> float:
+        """The direction's standard error (degrees, root of the covariance's trace)."""
+        return float(np.degrees(np.sqrt(max(np.trace(self.cov), 0.0))))
+
+
+def _chi2(N, C, S, floor2):
+    """``(H, L)`` chi-square of each line's plane against each direction ``S (H, 3)``."""
+    num = (S @ N.T) ** 2
+    den = np.einsum("hi,lij,hj->hl", S, C, S) + floor2
+    return num / den
+
+
+def _refine(N, C, lines, s0):
+    from ..linefit import direction_from_planes
+
+    if len(lines) < 2:
+        return s0, np.eye(3)
+    s, cov = direction_from_planes(N[lines], C[lines])
+    return (s if s @ s0 >= 0 else -s), cov
+
+
+def group_families(normals, covs, pixels, *, chi2_max: float = 9.0, angle_floor_deg: float = 0.25,
+                   min_lines: int = 3, max_seed_lines: int = 60, min_seed_angle_deg: float = 5.0,
+                   max_families: int = 20) -> tuple[np.ndarray, list[Family]]:
+    """Families of lines with plane normals ``normals (L, 3)``, covariances ``covs (L, 3, 3)`` and
+    ``pixels (L,)`` counts (module docstring). Returns ``(family (L,), families)``: each line's
+    family index into ``families`` or -1."""
+    N = np.asarray(normals, float).reshape(-1, 3)
+    C = np.asarray(covs, float).reshape(-1, 3, 3)
+    w = np.asarray(pixels, float).reshape(-1)
+    L = len(N)
+    label = np.full(L, -1, dtype=np.int64)
+    if L < max(min_lines, 2):
+        return label, []
+    floor2 = np.sin(np.radians(angle_floor_deg)) ** 2
+    seeds = np.argsort(-w)[:max_seed_lines]
+    i, j = np.triu_indices(len(seeds), 1)
+    S = np.cross(N[seeds[i]], N[seeds[j]])
+    sn = np.linalg.norm(S, axis=1)
+    ok = sn >= np.sin(np.radians(min_seed_angle_deg))
+    S = S[ok] / sn[ok, None]
+    if len(S) == 0:
+        return label, []
+    X2 = _chi2(N, C, S, floor2)  # (H, L)
+    free = np.ones(L, dtype=bool)
+    dirs = []
+    for _ in range(max_families):
+        agree = (X2 <= chi2_max) & free[None]
+        count = agree.sum(axis=1)
+        score = np.where(count >= min_lines, agree.astype(float) @ w, -1.0)
+        h = int(np.argmax(score))
+        if score[h] <= 0:
+            break
+        lines = np.flatnonzero(agree[h])
+        s = S[h]
+        for _ in range(3):
+            s, cov = _refine(N, C, lines, s)
+            x2 = _chi2(N, C, s[None], floor2)[0]
+            new = np.flatnonzero((x2 <= chi2_max) & free)
+            if np.array_equal(new, lines) or len(new) < min_lines:
+                break
+            lines = new
+        if len(lines) < min_lines:
+            # the hypothesis does not hold up once refined: drop it and go on
+            X2[h] = np.inf
+            continue
+        dirs.append(s)
+        free[lines] = False
+    if not dirs:
+        return label, []
+    # unique assignment; families too small dropped; refit
+    families: list[Family] = []
+    D = np.array(dirs)
+    for _ in range(3):
+        X = _chi2(N, C, D, floor2)  # (F, L)
+        agree = X <= chi2_max
+        n_agree = agree.sum(axis=0)
+        label = np.where(n_agree == 1, np.argmax(agree, axis=0), -1)
+        keep = [f for f in range(len(D)) if np.sum(label == f) >= min_lines]
+        families = []
+        newD = []
+        for f in keep:
+            lines = np.flatnonzero(label == f)
+            s, cov = _refine(N, C, lines, D[f])
+            families.append(Family(direction=s, cov=cov, lines=lines.tolist(), pixels=int(w[lines].sum())))
+            newD.append(s)
+        if len(newD) == len(D) and np.allclose(np.abs(np.sum(np.array(newD) * D, axis=1)), 1.0, atol=1e-12):
+            break
+        if not newD:
+            break
+        D = np.array(newD)
+    remap = np.full(len(D) + 1, -1, dtype=np.int64)
+    # labels refer to the last D; families were built from it in order
+    X = _chi2(N, C, np.array([f.direction for f in families]), floor2) if families else np.zeros((0, L))
+    agree = X <= chi2_max
+    n_agree = agree.sum(axis=0)
+    label = np.where(n_agree == 1, np.argmax(agree, axis=0), -1) if families else np.full(L, -1)
+    for f, fam in enumerate(families):
+        fam.lines = np.flatnonzero(label == f).tolist()
+        fam.pixels = int(w[fam.lines].sum())
+    del remap
+    return label.astype(np.int64), families
