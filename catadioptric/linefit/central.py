@@ -40,10 +40,14 @@ def direction_from_planes(normals, normal_covs):
 
 # --------------------------------------------------------------------------- central cameras
 def fit_interpretation_plane(cam, uv, *, f_scale: float = 1.0, ransac: bool = True, seed=0,
-                             pixel_sigma=None, inlier_threshold=None, max_trials: int = 200) -> InterpretationPlane:
+                             pixel_sigma=None, inlier_threshold=None, max_trials: int = 200,
+                             directions_only: bool = False) -> InterpretationPlane:
     """What one image of a central camera says about a 3-D line: the plane through the
     viewpoint that holds it (``normal``, unit; the line's direction is normal to it).
-    ``cam``: a central :class:`CatadioptricCamera` or a :class:`~catadioptric.unified.UnifiedCamera`.
+    ``cam``: a central :class:`CatadioptricCamera` or a :class:`~catadioptric.unified.UnifiedCamera`;
+    with ``directions_only``, also a non-central camera, of whose rays only the directions count:
+    the plane (through the rays' centre) that holds them, an approximation whose angular error is
+    about the spread of the rays' origins over the line's distance (a start for exact fits).
 
     Pixels ``uv (M, 2)`` (M >= 3). Minimises the first-order image distance of each pixel
     to the plane's image, ``|n . d_j| / |Jd_j^T n|`` (``d_j`` the pixel's ray direction,
@@ -56,9 +60,9 @@ def fit_interpretation_plane(cam, uv, *, f_scale: float = 1.0, ransac: bool = Tr
 
     if not isinstance(cam, (CatadioptricCamera, UnifiedCamera)):
         raise CatadioptricError(f"cam: expected a CatadioptricCamera or a UnifiedCamera, got {type(cam).__name__}")
-    if isinstance(cam, CatadioptricCamera) and not cam.is_central:
+    if isinstance(cam, CatadioptricCamera) and not cam.is_central and not directions_only:
         raise CatadioptricError("cam: expected a central camera (cam.is_central); a non-central camera sees the "
-                                "whole line: use fit_line")
+                                "whole line: use fit_line (or directions_only=True for the approximate plane)")
     uv = _check_uv(uv, "uv", 3)
     f_scale, pixel_sigma, inlier_threshold = _check_options("linear", f_scale, pixel_sigma, inlier_threshold)
     rng = _rng(seed)

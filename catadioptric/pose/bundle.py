@@ -254,21 +254,21 @@ def _normal_equations(pb, A, b, e, w, lam):
 def _solve_step(pb, A, b, e, w, lam):
     S, g, Hym, gm, Hmm_d = _normal_equations(pb, A, b, e, w, lam)
     d = np.diag(S).copy()
-    scale = np.maximum(d, 1e-12 * max(d.max(), 1e-300))
-    S_d = S + np.diag(lam * scale + 1e-15 * scale)
+    # Jacobi-scaled (unknowns of very different units: radians, metres, inverse distances) and damped
+    sc = np.sqrt(np.maximum(d, 1e-12 * max(d.max(), 1e-300)))
+    S_n = S / np.outer(sc, sc) + np.eye(len(d)) * (lam + 1e-15)
     try:
-        dy = -np.linalg.solve(S_d, g)
+        dy = -np.linalg.solve(S_n, g / sc) / sc
     except np.linalg.LinAlgError:
-        dy = -np.linalg.lstsq(S_d, g, rcond=None)[0]
+        dy = -np.linalg.lstsq(S_n, g / sc, rcond=None)[0] / sc
     dmu = -(gm + np.sum(Hym * dy[pb.cols], axis=1)) / Hmm_d
     return dy, dmu
 
 
 def _settle_depths(pb, R, y, mu):
-    """One Gauss-Newton step on each pixel's depth alone (the other unknowns fixed), so that a trial
-    step is judged at nearly the best depths: the depths are the most nonlinear unknowns (a pixel
-    near a vanishing point moves little with its depth), and one pixel overshooting must not make
-    the whole step fail. Returns ``(mu, e, A, b)`` at the new depths."""
+    """One Gauss-Newton step on each pixel's depth alone (the other unknowns fixed), before the joint
+    steps: the depths are the most nonlinear unknowns (a pixel near a vanishing point moves little
+    with its depth). Returns ``(mu, e, A, b)`` at the new depths."""
     e, A, b = pb.evaluate(R, y, mu)
     bb = np.sum(b * b, axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -280,35 +280,38 @@ def _settle_depths(pb, R, y, mu):
 
 
 def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter):
+    """Levenberg-Marquardt. The damping falls tenfold after each accepted step, down to 1e-15: the
+    flat direction of a near-central rig (the scene's scale) has an eigenvalue many orders below
+    the diagonal it is damped with, and a damping that stays near 1e-3 would stall along it."""
     mu, e, A, b = _settle_depths(pb, R, y, mu)
     w, cost = _weights(e, sigma, c2, robust, mask)
-    lam = 1e-3
+    lam = 1e-5
     it = 0
     for it in range(1, max_iter + 1):
         improved = False
-        for _ in range(8):
+        for _ in range(12):
             dy, dmu = _solve_step(pb, A, b, e, w, lam)
             R2, y2, mu2 = pb.apply(R, y, mu, dy, dmu)
-            mu2, e2, A2, b2 = _settle_depths(pb, R2, y2, mu2)
+            e2, A2, b2 = pb.evaluate(R2, y2, mu2)
             _, cost2 = _weights(e2, sigma, c2, robust, mask)
             if cost2 <= cost:
                 improved = True
                 break
-            lam *= 8.0
+            lam *= 10.0
         if not improved:
             break
         rel = (cost - cost2) / max(cost, 1e-300)
         R, y, mu, e, A, b = R2, y2, mu2, e2, A2, b2
-        lam = max(lam / 4.0, 1e-9)
+        lam = max(lam / 10.0, 1e-15)
         w, cost = _weights(e, sigma, c2, robust, mask)
-        if rel < 1e-7:
+        if rel < 1e-10:
             break
     return R, y, mu, cost, it
 
 
 def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, owner_a, uv_b, owner_b, *,
                     centres=None, sigma_cost: float = 1.0, pixel_sigma: float | None = None, robust: bool = True,
-                    c2: float = 9.0, max_iter: int = 30, inlier_sigmas: float = 3.5) -> TwoViewFit:
+                    c2: float = 9.0, max_iter: int = 50, inlier_sigmas: float = 3.5) -> TwoViewFit:
     """Refine ``x_B = R x_A + t`` and the lines jointly from the pixels of both views.
 
     ``dirs0 (F, 3)``: starting family directions in A; ``points0 (L, 3)``: a starting point of

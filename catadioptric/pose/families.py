@@ -131,13 +131,14 @@ def _fit_noncentral(cam, uv_sets, seed, f_scale, pixel_sigma, max_drops=8):
     raise CatadioptricError("no line of the family fits: " + "; ".join(f"line {k}: {v}" for k, v in dropped.items()))
 
 
-def _fit_central(cam, uv_sets, seed, f_scale, pixel_sigma):
+def _fit_central(cam, uv_sets, seed, f_scale, pixel_sigma, directions_only=False):
     from ..linefit import direction_from_planes, fit_interpretation_plane
 
     planes, keep, dropped = [], [], {}
     for i, u in enumerate(uv_sets):
         try:
-            planes.append(fit_interpretation_plane(cam, u, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma))
+            planes.append(fit_interpretation_plane(cam, u, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
+                                                   directions_only=directions_only))
             keep.append(i)
         except CatadioptricError as exc:
             dropped[i] = str(exc)
@@ -156,23 +157,30 @@ def _spread(n: int, k: int | None) -> np.ndarray:
 
 
 def fit_view_families(view: ViewLines, *, keys=None, seed=0, f_scale: float = 1.0, pixel_sigma=None,
-                      hints: dict | None = None, max_pixels: int | None = None) -> tuple[dict, dict]:
+                      hints: dict | None = None, max_pixels: int | None = None,
+                      exact: bool = True) -> tuple[dict, dict]:
     """Fit every family of ``view`` (or those in ``keys``). Returns ``(estimates, failures)``:
     ``{family: FamilyEstimate}`` and ``{family: reason}``. ``hints``: ``{family: direction}``
     in the view's mirror frame (a matched end, e.g. from a vanishing point): the fitted
     direction is flipped to agree with it. ``max_pixels``: fit each line on at most this many
-    of its pixels, evenly spread (the others count as inliers)."""
+    of its pixels, evenly spread (the others count as inliers). ``exact=False`` (non-central
+    rigs): each line's plane through the rays' centre from its rays' directions alone, the
+    family's direction normal to its planes (two lines or more), as a central camera's: far
+    cheaper than the exact joint fits, and an approximation by the spread of the rays' origins
+    over the lines' distances, enough to start the two-view refinement."""
     fams = view.families()
     est, fail = {}, {}
     central = is_central(view.cam)
+    planes_only = central or not exact
     centre = rays_centre(view.cam)
     for key in (fams if keys is None else [k for k in keys if k in fams]):
         idx = fams[key]
         picks = [_spread(len(view.uv[i]), max_pixels) for i in idx]
         sets = [view.uv[i][p] for i, p in zip(idx, picks)]
         try:
-            if central:
-                planes, s, cov, keep, dropped = _fit_central(view.cam, sets, seed, f_scale, pixel_sigma)
+            if planes_only:
+                planes, s, cov, keep, dropped = _fit_central(view.cam, sets, seed, f_scale, pixel_sigma,
+                                                             directions_only=not central)
                 normals = np.array([p.normal for p in planes])
                 rho = rho_sd = np.full(len(keep), np.nan)
                 pl = np.full((len(keep), 6), np.nan)

@@ -32,7 +32,6 @@ from .central import meeting_rays, translation_direction_from_crossings
 from .families import FamilyEstimate, ViewLines, fit_view_families, is_central
 from .rotation import rotation_angle_deg
 from .signs import sign_candidates
-from .translation import relative_translation_from_lines
 
 __all__ = ["Candidate", "RelativePose", "relative_pose"]
 
@@ -110,8 +109,11 @@ def _subsample(mask, k):
     return idx[np.round(np.linspace(0, len(idx) - 1, k)).astype(int)]
 
 
-def _triangulate(s, o, d):
-    """The point (normal to ``s``) of the line along unit ``s`` that best meets rays ``o, d``."""
+def _triangulate(s, o, d, prior=None):
+    """The point (normal to ``s``) of the line along unit ``s`` that best meets rays ``o, d``, and
+    whether the rays fix it (``(q, well_posed)``). A line parallel to the baseline lies in one
+    plane with both centres: two near-central views then see only that plane, and the point
+    along it comes from ``prior`` (a point, taken where the rays leave it free)."""
     e1 = np.cross(s, [1.0, 0.0, 0.0] if abs(s[0]) < 0.8 else [0.0, 1.0, 0.0])
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(s, e1)
@@ -120,8 +122,17 @@ def _triangulate(s, o, d):
     A = np.stack([d @ m1, d @ m2], axis=1)
     rhs = -(np.cross(o, d) @ s)
     sine = np.maximum(np.linalg.norm(np.cross(d, s), axis=1), 1e-9)
-    xy = np.linalg.lstsq(A / sine[:, None], rhs / sine, rcond=None)[0]
-    return xy[0] * e1 + xy[1] * e2
+    A, rhs = A / sine[:, None], rhs / sine
+    N = A.T @ A
+    ev = np.linalg.eigvalsh(N)
+    well = bool(ev[0] > 1e-4 * ev[1])
+    if prior is not None and not well:  # a ridge towards the prior, felt only along the free direction
+        p = np.array([prior @ e1, prior @ e2])
+        lam = 1e-3 * ev[1]
+        xy = np.linalg.solve(N + lam * np.eye(2), A.T @ rhs + lam * p)
+    else:
+        xy = np.linalg.lstsq(A, rhs, rcond=None)[0]
+    return xy[0] * e1 + xy[1] * e2, well
 
 
 def _two_view_direction(ea: FamilyEstimate, eb: FamilyEstimate, R) -> np.ndarray:
@@ -143,29 +154,55 @@ def _pixels_of(view, est: FamilyEstimate, k, max_pixels):
     return view.uv[line][idx]
 
 
-def _scale_from_depths(t_dir, offset, R, pairs):
-    """The length ``alpha`` of ``t = alpha t_dir + offset`` that makes the lines triangulated from the
-    two views as far as each view's own fit puts them. ``pairs``: per matched line ``(s_A,
-    rays of A (o, d), rays of B in B (o, d), est_A (rho, sd), est_B (rho, sd), c_A, c_B)``. For a
-    (nearly) central rig a line triangulated with a unit baseline lies ``1 / beta`` times closer than
-    with the true one, ``beta = 1 / alpha``: a weighted least-squares fit of the inverse distances,
-    in which a near-central rig's single-view distances weigh by their own (large) uncertainty."""
-    num = den = 0.0
-    t1 = t_dir + offset
-    for s, (oa, da), (ob, db), (ra, sa), (rb, sb), ca, cb in pairs:
-        o = np.concatenate([oa, (ob - t1) @ R])
-        d = np.concatenate([da, db @ R])
-        q = _triangulate(s, o, d)
-        for rho, sd, c in ((ra, sa, ca), (rb, sb, R.T @ (cb - t1))):
-            dist1 = np.linalg.norm(np.cross(q - c, s))
-            if not (np.isfinite(rho) and np.isfinite(sd) and sd > 0 and dist1 > 0):
-                continue
-            x = 1.0 / dist1  # inverse distance at unit baseline: rho = beta * x
-            num += x * rho / sd**2
-            den += x * x / sd**2
-    if den <= 0 or num <= 0:
-        return None
-    return den / num
+def _scale_by_search(va, vb, lines, dirs, R, t_dir, offset, sigma, n_pixels=12):
+    """The length ``alpha`` of ``t = alpha t_dir + offset`` at which the matched lines, triangulated
+    from both views, best fit their pixels (a truncated sum of squared pixel distances, on a few
+    pixels per line): a coarse search over 0.25 to 64 metres in octaves, then a parabola in
+    ``log alpha`` through the best and its neighbours. ``lines``: per matched line ``(family index,
+    uv_A, uv_B)``. A near-central rig hardly tells the lengths apart; the refinement then moves
+    ``alpha`` along its flat valley at no cost."""
+    from ..linefit.distances import _closest_depths, _depth_refine
+
+    def few(uv):
+        return uv[np.unique(np.round(np.linspace(0, len(uv) - 1, min(n_pixels, len(uv)))).astype(int))]
+
+    sub = [(f, few(ua), few(ub)) for f, ua, ub in lines]
+    ra = [va.cam.backproject(u) for _, u, _ in sub]
+    rb = [vb.cam.backproject(u) for _, _, u in sub]
+    uv_a = np.concatenate([u for _, u, _ in sub])
+    uv_b = np.concatenate([u for _, _, u in sub])
+    cap = (3.0 * sigma) ** 2
+
+    def cost(alpha):
+        t = alpha * t_dir + offset
+        qa, sa, qb, sb = [], [], [], []
+        for (f, ua, ub), a, b in zip(sub, ra, rb):
+            s = dirs[f]
+            o = np.concatenate([a.origins[a.valid], (b.origins[b.valid] - t) @ R])
+            d = np.concatenate([a.directions[a.valid], b.directions[b.valid] @ R])
+            q, _ = _triangulate(s, o, d)
+            qa.append(np.tile(q, (len(ua), 1)))
+            sa.append(np.tile(s, (len(ua), 1)))
+            qb.append(np.tile(R @ q + t, (len(ub), 1)))
+            sb.append(np.tile(R @ s, (len(ub), 1)))
+        total = 0.0
+        for cam, uv, q, s in ((va.cam, uv_a, np.concatenate(qa), np.concatenate(sa)),
+                              (vb.cam, uv_b, np.concatenate(qb), np.concatenate(sb))):
+            r = cam.backproject(uv)
+            lam0 = _closest_depths(q, s, np.nan_to_num(r.origins), np.nan_to_num(r.directions))
+            _, dist, _, _ = _depth_refine(cam, q, s, uv, lam0, iters=2)
+            total += float(np.sum(np.minimum(np.where(np.isfinite(dist), dist, np.inf) ** 2, cap)))
+        return total
+
+    logs = np.log(0.25) + np.log(2.0) * np.arange(9)
+    costs = np.array([cost(np.exp(x)) for x in logs])
+    k = int(np.argmin(costs))
+    if 0 < k < len(logs) - 1:
+        c0, c1, c2 = costs[k - 1:k + 2]
+        den = c0 - 2.0 * c1 + c2
+        if den > 0:
+            return float(np.exp(logs[k] + 0.5 * np.log(2.0) * (c0 - c2) / den))
+    return float(np.exp(logs[k]))
 
 
 def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, sigma_cost, pixel_sigma):
@@ -173,7 +210,6 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, s
     ``(TwoViewFit or None, lines matched)``; None when fewer than two lines are matched in both
     views."""
     R = cand.R
-    signs = dict(zip(keys, cand.signs))
     matched, single = [], []  # (key, ka, kb) with ka/kb None for a line seen in one view only
     for key in keys:
         A_ids = {va.line_id[i]: k for k, i in enumerate(ea[key].lines) if va.line_id[i] is not None}
@@ -187,32 +223,36 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, s
     ra = [rays(va, ea[key], ka) for key, ka, _ in matched]
     rb = [rays(vb, eb[key], kb) for key, _, kb in matched]
     ok = lambda r: (r.origins[r.valid], r.directions[r.valid])
-    if crossing is not None:
-        # the direction between the rays' centres from where lines meet, the length from the lines' depths
-        offset = eb[keys[0]].centre - R @ ea[keys[0]].centre
-        pairs = [(ea[key].direction, ok(a), ok(b), (ea[key].inv_distance[ka], ea[key].inv_distance_std[ka]),
-                  (eb[key].inv_distance[kb], eb[key].inv_distance_std[kb]), ea[key].centre, eb[key].centre)
-                 for (key, ka, kb), a, b in zip(matched, ra, rb)]
-        alpha = _scale_from_depths(crossing.t, offset, R, pairs)
-        alpha = 1.0 if alpha is None or not np.isfinite(alpha) else float(np.clip(alpha, 0.05, 1e3))
-        t0 = alpha * crossing.t + offset
-    else:
-        pl = lambda rs: np.concatenate([np.concatenate([d, np.cross(o, d)], 1) for o, d in map(ok, rs)])
-        own = lambda rs: np.concatenate([np.full(int(r.valid.sum()), m) for m, r in enumerate(rs)])
-        t0, _ = relative_translation_from_lines(R, np.array([ea[k].pluecker[a] for k, a, _ in matched]),
-                                                np.array([eb[k].pluecker[b] * signs[k] for k, _, b in matched]),
-                                                pl(ra), own(ra), pl(rb), own(rb))
-    # directions from the planes of both views; matched lines triangulated; a line seen in one view
-    # starts in its plane through that view's centre, as far as the matched lines' median (one view of
-    # a near-central rig hardly places it: the refinement moves it where its pixels say)
+    if crossing is None:  # no direction to start from: the lines alone do not place the views
+        return None, len(matched)
+    # directions from the planes of both views; the translation's direction between the rays' centres
+    # from where lines meet, its length by a search on the matched lines' pixels
     used = [k for k in keys if any(m[0] == k for m in matched)]
     fam_index = {k: i for i, k in enumerate(used)}
     dirs_a = np.array([_two_view_direction(ea[k], eb[k], R) for k in used])
-    pts = [_triangulate(dirs_a[fam_index[key]], np.concatenate([ok(a)[0], (ok(b)[0] - t0) @ R]),
-                        np.concatenate([ok(a)[1], ok(b)[1] @ R])) for (key, _, _), a, b in zip(matched, ra, rb)]
+    offset = eb[keys[0]].centre - R @ ea[keys[0]].centre
+    alpha = _scale_by_search(va, vb, [(fam_index[key], _pixels_of(va, ea[key], ka, max_pixels),
+                                       _pixels_of(vb, eb[key], kb, max_pixels)) for key, ka, kb in matched],
+                             dirs_a, R, crossing.t, offset, sigma_cost)
+    t0 = alpha * crossing.t + offset
+    # matched lines triangulated; a line seen in one view starts in its plane through that view's
+    # centre, as far as the matched lines' median (one view of a near-central rig hardly places it:
+    # the refinement moves it where its pixels say)
     c_a = ea[keys[0]].centre
     c_b_in_a = R.T @ (eb[keys[0]].centre - t0)
-    d_med = float(np.median([np.linalg.norm(np.cross(q - c_a, dirs_a[fam_index[m[0]]])) for q, m in zip(pts, matched)]))
+    rays_ab = [(dirs_a[fam_index[key]], np.concatenate([ok(a)[0], (ok(b)[0] - t0) @ R]),
+                np.concatenate([ok(a)[1], ok(b)[1] @ R])) for (key, _, _), a, b in zip(matched, ra, rb)]
+    tri = [_triangulate(*r) for r in rays_ab]
+    dist = [np.linalg.norm(np.cross(q - c_a, r[0])) for (q, well), r in zip(tri, rays_ab) if well]
+    d_med = float(np.median(dist)) if dist else 10.0 * float(np.linalg.norm(t0))
+    pts = []
+    for (q, well), (s, o, d), (key, ka, _) in zip(tri, rays_ab, matched):
+        if not well:  # in its plane through c_A, as far as the well-placed lines' median
+            u = np.cross(ea[key].normals[ka], s)
+            u = u / np.linalg.norm(u) if np.linalg.norm(u) > 0 else u
+            u = -u if len(d) and np.mean(d @ u) < 0 else u
+            q, _ = _triangulate(s, o, d, prior=c_a + d_med * u)
+        pts.append(q)
     lines = list(matched)
     for key, ka, kb in single:
         if key not in fam_index:
@@ -248,8 +288,8 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, s
 
 
 def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = None, seed=0, f_scale: float = 1.0,
-                  pixel_sigma: float | None = None, decisive: float = 25.0, max_pixels: int | None = 60,
-                  fit_pixels: int | None = 40, min_families: int = 2) -> RelativePose:
+                  pixel_sigma: float | None = None, decisive: float = 25.0, max_pixels: int | None = 40,
+                  min_families: int = 2) -> RelativePose:
     """The relative pose ``x_B = R x_A + t`` of two views from the lines they see.
 
     ``view_a``, ``view_b``: :class:`ViewLines`. ``ends``: ``{family: (hint_a, hint_b)}``, for
@@ -258,20 +298,17 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
     known and nothing is searched. ``f_scale``: pixel scale of the robust losses;
     ``pixel_sigma``: known pixel noise (default: estimated). ``decisive``: the margin (chi-square
     units) the best candidate needs over the second. ``max_pixels``: pixels per line and view
-    used by the two-view refinement (evenly spaced); ``fit_pixels``: per line in each view's own
-    family fits (which only start the refinement; a central model's fits are its estimate and
-    use ``max_pixels``). Raises :class:`CatadioptricError` naming the cause when fewer than
+    used (evenly spaced). Raises :class:`CatadioptricError` naming the cause when fewer than
     ``min_families`` families are seen in both views.
     """
     from threadpoolctl import threadpool_limits
 
     # every linear solve here is small: a multithreaded BLAS only fights other work for the cores
     with threadpool_limits(1):
-        return _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, fit_pixels,
-                              min_families)
+        return _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families)
 
 
-def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, fit_pixels, min_families):
+def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families):
     if not isinstance(view_a, ViewLines) or not isinstance(view_b, ViewLines):
         raise CatadioptricError(f"view_a, view_b: expected ViewLines, got {type(view_a).__name__} and "
                                 f"{type(view_b).__name__}")
@@ -289,14 +326,13 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
         if missing:
             raise CatadioptricError(f"ends: expected the matched ends of every family seen in both views, "
                                     f"missing {missing}")
-    if central:  # the per-view fits are the estimate: on the same pixels as the exact refinement
-        fit_pixels = max_pixels
     hints_a = {k: ends[k][0] for k in common} if ends is not None else None
     hints_b = {k: ends[k][1] for k in common} if ends is not None else None
+    # each view: planes of its lines and its families' directions (stages 1 and the refinement's start)
     ea, fail_a = fit_view_families(view_a, keys=common, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
-                                   hints=hints_a, max_pixels=fit_pixels)
+                                   hints=hints_a, max_pixels=max_pixels, exact=False)
     eb, fail_b = fit_view_families(view_b, keys=common, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
-                                   hints=hints_b, max_pixels=fit_pixels)
+                                   hints=hints_b, max_pixels=max_pixels, exact=False)
     notes = [f"family {k} not used in view A: {v}" for k, v in fail_a.items()]
     notes += [f"family {k} not used in view B: {v}" for k, v in fail_b.items()]
     keys = [k for k in common if k in ea and k in eb]
