@@ -15,6 +15,7 @@ SUBCOMMAND_MODULES = [
     "catadioptric.render.cli",
     "catadioptric.validate.cli",
     "catadioptric.export",
+    "catadioptric.detect.cli",
 ]
 
 

@@ -49,7 +49,7 @@ def _choices(c: Centres, radius: float, max_lateral: float, max_turn_deg: float,
     return fwd, bwd
 
 
-def link_chains(c: Centres, *, radius: float = 2.0, max_lateral: float = 0.5, max_turn_deg: float = 25.0,
+def link_chains(c: Centres, *, radius: float = 2.0, max_lateral: float = 0.75, max_turn_deg: float = 35.0,
                 min_step: float = 0.25, step: float = 1.0, min_points: int = 2) -> list[dict]:
     """Chains of the centre points ``c``: a list of dicts, each with ``uv (M, 2)`` (resampled to
     one point per ``step`` pixels of arc length, in order), ``members`` (indices of the points of
@@ -104,7 +104,7 @@ def _ends(chains: list[dict], span: int = 4):
     return np.array(pos).reshape(-1, 2), np.array(out).reshape(-1, 2)
 
 
-def join_chains(chains: list[dict], *, radius: float = 3.0, max_lateral: float = 1.5, max_angle_deg: float = 30.0,
+def join_chains(chains: list[dict], *, radius: float = 5.0, max_lateral: float = 2.0, max_angle_deg: float = 30.0,
                 step: float = 1.0) -> list[dict]:
     """Chains joined end to end where one continues another: an end within ``radius`` pixels of
     another chain's end, ahead of it (the gap within ``max_lateral`` of its outward direction, and

@@ -218,6 +218,13 @@ def order_along(piece: LinePiece) -> np.ndarray:
     return np.r_[o[k + 1:], o[: k + 1]]
 
 
-def line_covariance(piece: LinePiece, sigma_floor: float) -> np.ndarray:
-    """The normal's covariance with the pixel noise taken as the piece's rms, at least ``sigma_floor``."""
-    return plane_covariance(piece.normal, piece.rays, max(piece.rms, sigma_floor))
+def line_covariance(piece: LinePiece, sigma_floor: float, systematic_px: float = 0.0) -> np.ndarray:
+    """The normal's covariance: independent pixel noise of the piece's rms (at least
+    ``sigma_floor``), plus a systematic error of ``systematic_px`` pixels that does not average out
+    along the line (a band centre or an edge offset from the line's true image by a varying part of
+    the tube's width, aliasing): counted as two independent errors of that size, at the ends."""
+    M = max(int(piece.rays.ok.sum()), 1)
+    cov = plane_covariance(piece.normal, piece.rays, max(piece.rms, sigma_floor))
+    if systematic_px > 0:
+        cov = cov + plane_covariance(piece.normal, piece.rays, systematic_px) * (M / 2.0)
+    return cov

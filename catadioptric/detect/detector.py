@@ -17,7 +17,7 @@ from .planes import pixel_rays_with_jacobian
 from .region import mirror_region
 from .result import DetectedLines
 
-__all__ = ["detect_lines", "DEFAULTS"]
+__all__ = ["detect_lines", "check_options", "DEFAULTS"]
 
 #: The options of :func:`detect_lines` and their defaults (docs/detect.md says what each does).
 DEFAULTS = {
@@ -35,13 +35,18 @@ DEFAULTS = {
     "min_pixels": 20,           # shortest line kept after merging
     "merge_angle_deg": 10.0,    # pieces whose planes are this close are tried for merging
     "sigma_floor": 0.3,         # pixel noise assumed at least, for the lines' covariances
+    "systematic_px": 0.15,      # systematic pixel error along a line, for the lines' covariances
     "chi2_max": 9.0,            # families: a line agrees with a direction within this chi-square
-    "angle_floor_deg": 0.25,    # families: angular error added to each line's covariance
+    "angle_floor_deg": 0.1,     # families: angular error added to each line's covariance
     "min_family_lines": 3,      # families: fewest lines of a family
+    "family_search_pixels": 40, # families: lines at least this long find families, shorter ones only join
+    "max_log_nfa": 0.0,         # families: significance a family must reach (log of its number of false alarms)
 }
 
 
-def _options(options: dict) -> dict:
+def check_options(options: dict) -> dict:
+    """The options of :func:`detect_lines` completed with :data:`DEFAULTS` and checked (a
+    :class:`CatadioptricError` names a bad one)."""
     bad = sorted(set(options) - set(DEFAULTS))
     if bad:
         raise CatadioptricError(f"options: expected some of {sorted(DEFAULTS)}, got unknown {bad}")
@@ -50,9 +55,10 @@ def _options(options: dict) -> dict:
         raise CatadioptricError(f"denoise: expected one of {list(DENOISE_MODES)}, got {o['denoise']!r}")
     for k in ("denoise_strength", "sigma", "max_width", "threshold", "merge_angle_deg", "sigma_floor", "chi2_max"):
         o[k] = as_scalar(o[k], k, positive=True)
-    o["angle_floor_deg"] = as_scalar(o["angle_floor_deg"], "angle_floor_deg")
-    if o["angle_floor_deg"] < 0:
-        raise CatadioptricError(f"angle_floor_deg: expected a number >= 0, got {o['angle_floor_deg']!r}")
+    for k in ("angle_floor_deg", "systematic_px"):
+        o[k] = as_scalar(o[k], k)
+        if o[k] < 0:
+            raise CatadioptricError(f"{k}: expected a number >= 0, got {o[k]!r}")
     for k in ("low", "high"):
         if o[k] is not None:
             o[k] = as_scalar(o[k], k, positive=True)
@@ -60,6 +66,8 @@ def _options(options: dict) -> dict:
     o["min_points"] = as_count(o["min_points"], "min_points", minimum=4)
     o["min_pixels"] = as_count(o["min_pixels"], "min_pixels", minimum=4)
     o["min_family_lines"] = as_count(o["min_family_lines"], "min_family_lines", minimum=2)
+    o["family_search_pixels"] = as_count(o["family_search_pixels"], "family_search_pixels", minimum=0)
+    o["max_log_nfa"] = as_scalar(o["max_log_nfa"], "max_log_nfa")
     for k in ("step_edges", "colour"):
         if not isinstance(o[k], (bool, np.bool_)):
             raise CatadioptricError(f"{k}: expected True or False, got {o[k]!r}")
@@ -74,7 +82,7 @@ def detect_lines(image, cam, **options) -> DetectedLines:
 
     if not isinstance(cam, CatadioptricCamera):
         raise CatadioptricError(f"cam: expected a CatadioptricCamera, got {type(cam).__name__}")
-    o = _options(options)
+    o = check_options(options)
     seconds = {}
     t = time.perf_counter()
 
@@ -122,14 +130,15 @@ def detect_lines(image, cam, **options) -> DetectedLines:
         order = order_along(p)
         uv.append(p.uv[order])
         normals.append(p.normal)
-        covs.append(line_covariance(p, o["sigma_floor"]))
+        covs.append(line_covariance(p, o["sigma_floor"], o["systematic_px"]))
         rms.append(p.rms)
         pol.append(p.polarity)
         width.append(float(np.median([chains[s]["width"] for s in p.sources])))
     normals = np.array(normals).reshape(-1, 3)
     covs = np.array(covs).reshape(-1, 3, 3)
     family, families = group_families(normals, covs, [len(u) for u in uv], chi2_max=o["chi2_max"],
-                                      angle_floor_deg=o["angle_floor_deg"], min_lines=o["min_family_lines"])
+                                      angle_floor_deg=o["angle_floor_deg"], min_lines=o["min_family_lines"],
+                                      min_search_pixels=o["family_search_pixels"], max_log_nfa=o["max_log_nfa"])
     lap("families")
     seconds["total"] = float(sum(seconds.values()))
     return DetectedLines(cam=cam, uv=uv, normal=normals, normal_cov=covs, rms=np.array(rms), polarity=np.array(pol),

@@ -17,7 +17,8 @@ For a dataset view (:class:`catadioptric.DatasetView`): each labelled line's vis
 * **Families**: the true families of the view are those with at least two labelled lines of
   ``min_label_pixels``; a detected family matches a true one when the angle between their
   directions (either sign) is at most ``max(angle_deg, sigmas x its standard error)``. Precision:
-  detected families that match a true one; recall: true families matched by a detected one.
+  detected families that match a true one; recall: true families matched by a detected one
+  (``family_recall``; ``family_recall_3`` over the true families with three lines or more).
   Line assignment: the fraction of the detected lines assigned to a family whose matched true
   family is the family of the line's matched labelled line.
 """
@@ -153,6 +154,9 @@ def evaluate_view(det, view, *, tolerance: float = 1.5, min_label_pixels: int = 
     res["family_precision"] = (float(np.mean([m["true_family"] is not None for m in det_match]))
                                if det_match else None)
     res["family_recall"] = (len(matched_true & set(present)) / len(present)) if present else None
+    big = [f for f in present if count[f] >= 3]
+    res["families_true_3"] = big
+    res["family_recall_3"] = (len(matched_true & set(big)) / len(big)) if big else None
     # line assignment: a detected line's family against its labelled line's family
     assigned = [(i, int(det.family[i])) for i in range(len(det_uv)) if det.family[i] >= 0 and match[i] >= 0]
     if assigned:

@@ -63,8 +63,25 @@ def _refine(N, C, lines, s0):
     return (s if s @ s0 >= 0 else -s), cov
 
 
-def group_families(normals, covs, pixels, *, chi2_max: float = 9.0, angle_floor_deg: float = 0.25,
+def _log_nfa(eps_agree: np.ndarray, n_free: int) -> float:
+    """How surprising it is that ``len(eps_agree)`` of ``n_free`` lines agree with one direction,
+    each line ``i`` by chance with probability ``eps_agree[i]`` (for a direction uniform on the
+    sphere, ``P(|n . s| <= e) = e``): ``log C(n_free - 2, k - 2) + sum log eps`` over all but the two
+    lines that fix the direction (the two most precise: the conservative choice)."""
+    from scipy.special import gammaln
+
+    k = len(eps_agree)
+    if k <= 2:
+        return 0.0
+    e = np.sort(eps_agree)[2:]
+    m = max(n_free - 2, k - 2)
+    log_comb = gammaln(m + 1) - gammaln(k - 1) - gammaln(m - k + 3)
+    return float(log_comb + np.sum(np.log(e)))
+
+
+def group_families(normals, covs, pixels, *, chi2_max: float = 9.0, angle_floor_deg: float = 0.1,
                    min_lines: int = 3, max_seed_lines: int = 60, min_seed_angle_deg: float = 5.0,
+                   max_log_nfa: float = 0.0, min_search_pixels: int = 40,
                    max_families: int = 20) -> tuple[np.ndarray, list[Family]]:
     """Families of lines with plane normals ``normals (L, 3)``, covariances ``covs (L, 3, 3)`` and
     ``pixels (L,)`` counts (module docstring). Returns ``(family (L,), families)``: each line's
@@ -77,7 +94,8 @@ def group_families(normals, covs, pixels, *, chi2_max: float = 9.0, angle_floor_
     if L < max(min_lines, 2):
         return label, []
     floor2 = np.sin(np.radians(angle_floor_deg)) ** 2
-    seeds = np.argsort(-w)[:max_seed_lines]
+    search = w >= min_search_pixels  # the lines that find families; shorter ones only join them
+    seeds = np.argsort(-np.where(search, w, -1.0))[:min(max_seed_lines, int(search.sum()))]
     i, j = np.triu_indices(len(seeds), 1)
     S = np.cross(N[seeds[i]], N[seeds[j]])
     sn = np.linalg.norm(S, axis=1)
@@ -86,15 +104,20 @@ def group_families(normals, covs, pixels, *, chi2_max: float = 9.0, angle_floor_
     if len(S) == 0:
         return label, []
     X2 = _chi2(N, C, S, floor2)  # (H, L)
-    free = np.ones(L, dtype=bool)
+    # each line's chance of agreeing with a random direction: the width of its band of agreement
+    band = np.sqrt(chi2_max * (np.einsum("hi,lij,hj->hl", S, C, S) + floor2))  # (H, L)
+    free = search.copy()
     dirs = []
     for _ in range(max_families):
         agree = (X2 <= chi2_max) & free[None]
         count = agree.sum(axis=1)
-        score = np.where(count >= min_lines, agree.astype(float) @ w, -1.0)
-        h = int(np.argmax(score))
-        if score[h] <= 0:
+        cand = np.flatnonzero(count >= min_lines)
+        if len(cand) == 0:
             break
+        n_free = int(free.sum())
+        # rank by significance (most negative log NFA first), ties by pixels
+        scores = np.array([_log_nfa(np.minimum(band[h, agree[h]], 1.0), n_free) for h in cand])
+        h = int(cand[np.argmin(scores)])
         lines = np.flatnonzero(agree[h])
         s = S[h]
         for _ in range(3):
@@ -104,43 +127,42 @@ def group_families(normals, covs, pixels, *, chi2_max: float = 9.0, angle_floor_
             if np.array_equal(new, lines) or len(new) < min_lines:
                 break
             lines = new
-        if len(lines) < min_lines:
+        b = np.sqrt(chi2_max * (np.einsum("i,lij,j->l", s, C[lines], s) + floor2))
+        if len(lines) < min_lines or _log_nfa(np.minimum(b, 1.0), n_free) > max_log_nfa:
             # the hypothesis does not hold up once refined: drop it and go on
             X2[h] = np.inf
             continue
         dirs.append(s)
         free[lines] = False
-    if not dirs:
-        return label, []
-    # unique assignment; families too small dropped; refit
+    return _assign(N, C, w, dirs, floor2, chi2_max, min_lines)
+
+
+def _assign(N, C, w, dirs, floor2, chi2_max, min_lines):
+    """Each line to the one family it agrees with (else -1); families left with fewer than
+    ``min_lines`` dropped, the others refitted on their lines, until nothing changes."""
+    L = len(N)
+    label = np.full(L, -1, dtype=np.int64)
+    D = np.array(dirs).reshape(-1, 3)
     families: list[Family] = []
-    D = np.array(dirs)
-    for _ in range(3):
-        X = _chi2(N, C, D, floor2)  # (F, L)
-        agree = X <= chi2_max
-        n_agree = agree.sum(axis=0)
-        label = np.where(n_agree == 1, np.argmax(agree, axis=0), -1)
+    for _ in range(5):
+        if len(D) == 0:
+            return np.full(L, -1, dtype=np.int64), []
+        agree = _chi2(N, C, D, floor2) <= chi2_max  # (F, L)
+        label = np.where(agree.sum(axis=0) == 1, np.argmax(agree, axis=0), -1)
         keep = [f for f in range(len(D)) if np.sum(label == f) >= min_lines]
         families = []
-        newD = []
         for f in keep:
             lines = np.flatnonzero(label == f)
             s, cov = _refine(N, C, lines, D[f])
             families.append(Family(direction=s, cov=cov, lines=lines.tolist(), pixels=int(w[lines].sum())))
-            newD.append(s)
-        if len(newD) == len(D) and np.allclose(np.abs(np.sum(np.array(newD) * D, axis=1)), 1.0, atol=1e-12):
+        newD = np.array([f.direction for f in families]).reshape(-1, 3)
+        if len(newD) == len(D) and np.allclose(np.abs(np.sum(newD * D, axis=1)), 1.0, atol=1e-12):
             break
-        if not newD:
-            break
-        D = np.array(newD)
-    remap = np.full(len(D) + 1, -1, dtype=np.int64)
-    # labels refer to the last D; families were built from it in order
-    X = _chi2(N, C, np.array([f.direction for f in families]), floor2) if families else np.zeros((0, L))
-    agree = X <= chi2_max
-    n_agree = agree.sum(axis=0)
-    label = np.where(n_agree == 1, np.argmax(agree, axis=0), -1) if families else np.full(L, -1)
+        D = newD
+    # the labels of the final directions
+    agree = _chi2(N, C, D, floor2) <= chi2_max
+    label = np.where(agree.sum(axis=0) == 1, np.argmax(agree, axis=0), -1)
     for f, fam in enumerate(families):
         fam.lines = np.flatnonzero(label == f).tolist()
         fam.pixels = int(w[fam.lines].sum())
-    del remap
     return label.astype(np.int64), families
