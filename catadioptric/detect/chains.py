@@ -88,15 +88,18 @@ def link_chains(c: Centres, *, radius: float = 2.0, max_lateral: float = 0.75, m
     return chains
 
 
-def _ends(chains: list[dict], span: int = 4):
+def _ends(chains: list[dict], span: int = 8, skip: int = 2):
     """Per chain its two ends: positions ``(2K, 2)`` and outward unit directions ``(2K, 2)``
-    (end ``2k`` the start of chain k, ``2k + 1`` its end)."""
+    (end ``2k`` the start of chain k, ``2k + 1`` its end). The direction is that of the chain's
+    last ``span`` points but the ``skip`` outermost (which bend where the band meets another)."""
     pos, out = [], []
     for ch in chains:
         uv = ch["uv"]
-        if len(uv) >= 2:
-            a = uv[0] - uv[min(span, len(uv) - 1)]
-            b = uv[-1] - uv[max(len(uv) - 1 - span, 0)]
+        M = len(uv)
+        if M >= 2:
+            sk = skip if M > span + skip else 0
+            a = uv[sk] - uv[min(sk + span, M - 1)]
+            b = uv[M - 1 - sk] - uv[max(M - 1 - sk - span, 0)]
         else:
             a, b = -ch["tangent"], ch["tangent"]
         pos += [uv[0], uv[-1]]

@@ -39,8 +39,8 @@ DEFAULTS = {
     "chi2_max": 9.0,            # families: a line agrees with a direction within this chi-square
     "angle_floor_deg": 0.1,     # families: angular error added to each line's covariance
     "min_family_lines": 3,      # families: fewest lines of a family
-    "family_search_pixels": 40, # families: lines at least this long find families, shorter ones only join
-    "max_log_nfa": 0.0,         # families: significance a family must reach (log of its number of false alarms)
+    "family_search_pixels": 20, # families: lines at least this long find families, shorter ones only join
+    "max_log_nfa": -4.0,        # families: significance a family must reach (log of its number of false alarms)
 }
 
 

@@ -17,9 +17,10 @@ non-central rig the model's). Directions are voted for:
    refined (:func:`catadioptric.linefit.direction_from_planes`, covariance-weighted, on the
    lines that agree) and its lines are taken out; repeated while a hypothesis gathers
    ``min_lines`` lines (sequential RANSAC);
-3. every line is then assigned to the family it agrees with, if exactly one: a line that agrees
-   with none, or with several (a short line, a line whose plane holds two families' directions,
-   e.g. a horizontal line at the height of the rig), stays unassigned (family -1); families left
+3. every line is then assigned to the family it agrees with, if exactly one and if its band of
+   agreement (``3 sigma``) is at most ``max_band_deg`` wide: a line that agrees with none, with
+   several (a line whose plane holds two families' directions, e.g. a horizontal line at the
+   height of the rig) or too loosely (a short line) stays unassigned (family -1); families left
    with fewer than ``min_lines`` lines are dropped and the rest refitted.
 """
 from __future__ import annotations
@@ -81,7 +82,7 @@ def _log_nfa(eps_agree: np.ndarray, n_free: int) -> float:
 
 def group_families(normals, covs, pixels, *, chi2_max: float = 9.0, angle_floor_deg: float = 0.1,
                    min_lines: int = 3, max_seed_lines: int = 60, min_seed_angle_deg: float = 5.0,
-                   max_log_nfa: float = 0.0, min_search_pixels: int = 40,
+                   max_log_nfa: float = -4.0, min_search_pixels: int = 20, max_band_deg: float = 2.0,
                    max_families: int = 20) -> tuple[np.ndarray, list[Family]]:
     """Families of lines with plane normals ``normals (L, 3)``, covariances ``covs (L, 3, 3)`` and
     ``pixels (L,)`` counts (module docstring). Returns ``(family (L,), families)``: each line's
@@ -134,10 +135,18 @@ def group_families(normals, covs, pixels, *, chi2_max: float = 9.0, angle_floor_
             continue
         dirs.append(s)
         free[lines] = False
-    return _assign(N, C, w, dirs, floor2, chi2_max, min_lines)
+    return _assign(N, C, w, dirs, floor2, chi2_max, min_lines, np.radians(max_band_deg))
 
 
-def _assign(N, C, w, dirs, floor2, chi2_max, min_lines):
+def _agree(N, C, D, floor2, chi2_max, max_band):
+    """``(F, L)``: line l agrees with direction f, and its band of agreement is at most ``max_band``
+    (radians) wide: a line that would agree with directions far apart places nothing."""
+    num = (D @ N.T) ** 2
+    var = np.einsum("fi,lij,fj->fl", D, C, D) + floor2
+    return (num <= chi2_max * var) & (chi2_max * var <= max_band**2)
+
+
+def _assign(N, C, w, dirs, floor2, chi2_max, min_lines, max_band):
     """Each line to the one family it agrees with (else -1); families left with fewer than
     ``min_lines`` dropped, the others refitted on their lines, until nothing changes."""
     L = len(N)
@@ -147,7 +156,7 @@ def _assign(N, C, w, dirs, floor2, chi2_max, min_lines):
     for _ in range(5):
         if len(D) == 0:
             return np.full(L, -1, dtype=np.int64), []
-        agree = _chi2(N, C, D, floor2) <= chi2_max  # (F, L)
+        agree = _agree(N, C, D, floor2, chi2_max, max_band)  # (F, L)
         label = np.where(agree.sum(axis=0) == 1, np.argmax(agree, axis=0), -1)
         keep = [f for f in range(len(D)) if np.sum(label == f) >= min_lines]
         families = []
@@ -160,7 +169,7 @@ def _assign(N, C, w, dirs, floor2, chi2_max, min_lines):
             break
         D = newD
     # the labels of the final directions
-    agree = _chi2(N, C, D, floor2) <= chi2_max
+    agree = _agree(N, C, D, floor2, chi2_max, max_band)
     label = np.where(agree.sum(axis=0) == 1, np.argmax(agree, axis=0), -1)
     for f, fam in enumerate(families):
         fam.lines = np.flatnonzero(label == f).tolist()
