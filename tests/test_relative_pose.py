@@ -150,3 +150,21 @@ def test_errors_name_their_cause():
         relative_pose(va, vb, ends={0: (np.eye(3)[0], np.eye(3)[0])})
     with pytest.raises(cd.CatadioptricError, match=r"decisive: expected a positive number, got 0.0"):
         relative_pose(va, vb, decisive=0)
+
+
+def test_without_labels_families_and_lines_are_matched_by_the_geometry():
+    """The lines of each view with their own family keys and no line ids (as detected in an image):
+    the families are assigned across the views and the lines matched where they meet; the
+    answer is the right one or is reported ambiguous."""
+    va, vb, R_gt, t_gt = _pair("hyperboloid", noise=0.5)
+    fa = [f"a{(3 * f + 1) % 7}" for f in va.family]
+    fb = [f"b{(5 * f + 2) % 7}" for f in vb.family]
+    res = relative_pose(ViewLines(va.cam, va.uv, fa, None), ViewLines(vb.cam, vb.uv, fb, None))
+    assert "matched without labels" in res.notes[0]
+    err = rotation_angle_deg(res.R @ R_gt.T)
+    assert res.ambiguous or err < 2.0, (err, res.margin)
+    assert len(res.candidates) >= 2
+    with pytest.raises(cd.CatadioptricError, match=r"ends: the ends of families can only be given for families "
+                                                   r"matched across the views"):
+        relative_pose(ViewLines(va.cam, va.uv, fa, None), ViewLines(vb.cam, vb.uv, fb, None),
+                      ends={"a1": (np.eye(3)[0], np.eye(3)[0])})

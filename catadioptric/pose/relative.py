@@ -36,7 +36,8 @@ from .signs import sign_candidates
 __all__ = ["Candidate", "RelativePose", "relative_pose"]
 
 _FITS = 4.0  # a refinement fits the pixels when its robust cost is at most this per pixel (about 2 sigma)
-_SAME_DEG = 1.0  # two refined rotations closer than this are one answer
+_SAME_DEG = 5.0  # two answers whose rotations are closer than this are one answer (the ambiguities are
+# discrete: half-turns, permutations of the families)
 
 
 @dataclass
@@ -319,6 +320,11 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
     central = is_central(view_a.cam)
     if central != is_central(view_b.cam):
         raise CatadioptricError("view_a, view_b: expected two central or two non-central cameras, got one of each")
+    if all(i is None for i in view_a.line_id) or all(i is None for i in view_b.line_id):
+        if ends is not None:
+            raise CatadioptricError("ends: the ends of families can only be given for families matched across "
+                                    "the views; these views' lines carry no line_id (nothing is matched)")
+        return _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families)
     fa, fb = view_a.families(), view_b.families()
     common = [k for k in fa if k in fb]
     if ends is not None:
@@ -415,3 +421,56 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
                         ambiguous=bool(margin < decisive), margin=float(margin), candidates=out, families=keys,
                         lines_matched=n_matched, model="central" if central else "non-central", sigma_px=float(sigma),
                         estimates=(ea, eb), notes=notes)
+
+
+def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families):
+    """Relative pose when nothing is matched across the views (lines from each image alone): the
+    family assignments a rotation allows (:func:`~catadioptric.pose.matching.family_matches`), for
+    each the lines matched by where they meet (:func:`~catadioptric.pose.matching.match_lines`),
+    ranked by direction cost plus the meeting rays' cost (the same rays of A for every
+    assignment); the best goes through the labelled path with its ends known."""
+    from .matching import family_matches, match_lines
+
+    ea, fail_a = fit_view_families(view_a, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
+                                   max_pixels=max_pixels, exact=False)
+    eb, fail_b = fit_view_families(view_b, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
+                                   max_pixels=max_pixels, exact=False)
+    if len(ea) < min_families or len(eb) < min_families:
+        raise CatadioptricError(f"views: expected at least {min_families} families of two or more lines in each "
+                                f"view, got {len(ea)} in A and {len(eb)} in B")
+    sigmas = [e.sigma for e in list(ea.values()) + list(eb.values()) if np.isfinite(e.sigma)]
+    sigma = pixel_sigma if pixel_sigma is not None else max(float(np.median(sigmas)) if sigmas else f_scale,
+                                                            0.1 * f_scale)
+    matches = family_matches(ea, eb)
+    if not matches:
+        raise CatadioptricError(f"views: no assignment of the {len(eb)} families of B to the {len(ea)} of A fits a "
+                                "rotation")
+    scored = []
+    for m in matches:
+        lm = match_lines(view_a, view_b, ea, eb, m, sigma_px=sigma, seed=seed)
+        scored.append((m.cost + lm.cost, m, lm))
+    scored.sort(key=lambda x: x[0])
+    best_score, best, lines = scored[0]
+    others = [s for s, m, _ in scored[1:] if rotation_angle_deg(m.R @ best.R.T) > _SAME_DEG]
+    margin = (min(others) - best_score) if others else float("inf")
+    # relabel: B's families as A's (with the assignment's signs), matched lines with one id
+    a_id = [None] * len(view_a.uv)
+    b_id = [None] * len(view_b.uv)
+    for a_line, b_line in lines.pairs:
+        a_id[a_line] = b_id[b_line] = f"line{a_line}"
+    fam_b = [best.mapping[f][0] if f in best.mapping else ("unmatched", f) for f in view_b.family]
+    va = ViewLines(view_a.cam, view_a.uv, view_a.family, a_id)
+    vb = ViewLines(view_b.cam, view_b.uv, fam_b, b_id)
+    ends = {a: (ea[a].direction, eb[b].direction * sign) for b, (a, sign) in best.mapping.items()}
+    res = _relative_pose(va, vb, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families)
+    res.candidates = [Candidate({str(b): (str(a), int(s)) for b, (a, s) in m.mapping.items()}, m.R,
+                                None if lm.t is None else lm.t, score, m.cost, None, lm) for score, m, lm in scored]
+    res.candidates[0] = Candidate(res.candidates[0].signs, res.R, res.t, best_score, best.cost, res.cov, lines)
+    res.margin = float(margin)
+    res.ambiguous = bool(margin < decisive)
+    res.notes = [f"families and lines matched without labels: {len(best.mapping)} families, {len(lines.pairs)} "
+                 f"lines ({lines.n_inliers} of {lines.n_crossings} meeting points of A found in B); "
+                 f"{len(scored)} family assignments tried"] + res.notes
+    res.notes += [f"family {k} of A not used: {v}" for k, v in fail_a.items()]
+    res.notes += [f"family {k} of B not used: {v}" for k, v in fail_b.items()]
+    return res
