@@ -96,11 +96,16 @@ def cubic(img: np.ndarray, uv: np.ndarray) -> np.ndarray:
     """``img`` sampled at sub-pixel points ``uv (N, 2)`` (bicubic, OpenCV; replicated border)."""
     import cv2
 
-    m = np.ascontiguousarray(uv, dtype=np.float32).reshape(-1, 1, 2)
-    if len(m) == 0:
+    N = len(uv)
+    if N == 0:
         return np.zeros(0)
-    return cv2.remap(np.ascontiguousarray(img, dtype=np.float32), m, None, cv2.INTER_CUBIC,
-                     borderMode=cv2.BORDER_REPLICATE).reshape(-1).astype(np.float64)
+    # OpenCV maps are images (fewer than 32767 rows): lay the points out in rows of 1024
+    rows = -(-N // 1024)
+    m = np.zeros((rows * 1024, 2), np.float32)
+    m[:N] = uv
+    out = cv2.remap(np.ascontiguousarray(img, dtype=np.float32), m.reshape(rows, 1024, 2), None, cv2.INTER_CUBIC,
+                    borderMode=cv2.BORDER_REPLICATE)
+    return out.reshape(-1)[:N].astype(np.float64)
 
 
 def gradient_noise(noise: float, sigma: float) -> float:
