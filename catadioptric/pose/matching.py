@@ -193,31 +193,24 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
             np.minimum.at(best[k], ci, r2[k])
         return best.sum(axis=1), r2
 
-    costs = []
-    for chunk in range(0, len(T), 256):
-        costs.append(per_crossing_cost(T[chunk:chunk + 256])[0])
-    costs = np.concatenate(costs)
-    t = T[int(np.argmin(costs))]
-    for _ in range(5):  # least squares on the inlier pairs (each A meeting ray at its best)
-        _, r2 = per_crossing_cost(t[None])
-        r2 = r2[0]
-        best_j = {}
+    def best_pairs(t):
+        """Each meeting ray of A at its best inlier candidate in B: ``{i: candidate index}``."""
+        r2 = per_crossing_cost(t[None])[1][0]
+        best = {}
         for k in np.nonzero(r2 < c2)[0]:
-            i = ci[k]
-            if i not in best_j or r2[k] < r2[best_j[i]]:
-                best_j[i] = k
-        ks = np.array(list(best_j.values()), dtype=int)
+            if ci[k] not in best or r2[k] < r2[best[ci[k]]]:
+                best[ci[k]] = k
+        return best
+
+    costs = np.concatenate([per_crossing_cost(T[c:c + 256])[0] for c in range(0, len(T), 256)])
+    t = T[int(np.argmin(costs))]
+    for _ in range(5):  # least squares on the inlier pairs
+        ks = np.array(list(best_pairs(t).values()), dtype=int)
         if len(ks) < 2:
             break
         t_new = np.linalg.eigh(A[ks].T @ A[ks])[1][:, 0]
         t = t_new if t_new @ t >= 0 else -t_new
-    cost, r2 = per_crossing_cost(t[None])
-    r2 = r2[0]
-    best_j = {}
-    for k in np.nonzero(r2 < c2)[0]:
-        i = ci[k]
-        if i not in best_j or r2[k] < r2[best_j[i]]:
-            best_j[i] = k
+    best_j = best_pairs(t)
     votes: dict = {}
     for i, k in best_j.items():
         for a_line, b_line in zip(la[i], lb[cj[k]]):
