@@ -12,8 +12,10 @@ between two views ``x_B = R x_A + t`` (mirror frames). Lines are Pluecker ``(s, 
 | `translation_from_lines` | `translation.py` | R, world lines, rays of their pixels | t (absolute pose) |
 | `relative_translation_from_lines` | `translation.py` | R, lines fitted in each view, rays of both | t (metric, non-central) |
 | `refine_two_view` | `bundle.py` | R, t, lines, pixels of both views | R, t, lines, covariance (non-central) |
-| `translation_direction_from_crossings` | `central.py` | R, interpretation planes of both views | direction between viewpoints (central) |
-| `relative_pose` | `relative.py` | the lines each view sees | R, t, covariance, candidates, ambiguity verdict |
+| `translation_direction_from_crossings` | `central.py` | R, planes of the lines matched in both views | direction between the views' centres |
+| `family_matches` | `matching.py` | each view's families (unmatched) | the assignments of B's families to A's a rotation allows |
+| `match_lines` | `matching.py` | a family assignment, each view's lines (unmatched) | lines matched where they meet, direction between the centres |
+| `relative_pose` | `relative.py` | the lines each view sees (matched by id, or not) | R, t, covariance, candidates, ambiguity verdict |
 
 See docs/relative_pose.md.
 """
@@ -22,6 +24,7 @@ from __future__ import annotations
 from .bundle import TwoViewFit, refine_two_view
 from .central import CrossingFit, translation_direction_from_crossings
 from .families import FamilyEstimate, ViewLines, fit_view_families
+from .matching import FamilyMatch, LineMatch, family_matches, match_lines
 from .relative import Candidate, RelativePose, relative_pose
 from .rotation import DirectionRotation, refine_rotation, rotation_angle_deg, rotation_from_directions
 from .signs import SignCandidate, sign_candidates
@@ -32,4 +35,5 @@ __all__ = [
     "sign_candidates", "SignCandidate", "translation_from_lines", "relative_translation_from_lines",
     "refine_two_view", "TwoViewFit", "translation_direction_from_crossings", "CrossingFit",
     "ViewLines", "FamilyEstimate", "fit_view_families", "relative_pose", "RelativePose", "Candidate",
+    "family_matches", "FamilyMatch", "match_lines", "LineMatch",
 ]
