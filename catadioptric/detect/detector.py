@@ -41,6 +41,7 @@ DEFAULTS = {
     "min_family_lines": 3,      # families: fewest lines of a family
     "family_search_pixels": 20, # families: lines at least this long find families, shorter ones only join
     "max_log_nfa": -4.0,        # families: significance a family must reach (log of its number of false alarms)
+    "concurrency_px": 5.0,      # families: reject a direction whose lines mostly end this close to its image
 }
 
 
@@ -55,7 +56,7 @@ def check_options(options: dict) -> dict:
         raise CatadioptricError(f"denoise: expected one of {list(DENOISE_MODES)}, got {o['denoise']!r}")
     for k in ("denoise_strength", "sigma", "max_width", "threshold", "merge_angle_deg", "sigma_floor", "chi2_max"):
         o[k] = as_scalar(o[k], k, positive=True)
-    for k in ("angle_floor_deg", "systematic_px"):
+    for k in ("angle_floor_deg", "systematic_px", "concurrency_px"):
         o[k] = as_scalar(o[k], k)
         if o[k] < 0:
             raise CatadioptricError(f"{k}: expected a number >= 0, got {o[k]!r}")
@@ -138,7 +139,10 @@ def detect_lines(image, cam, **options) -> DetectedLines:
     covs = np.array(covs).reshape(-1, 3, 3)
     family, families = group_families(normals, covs, [len(u) for u in uv], chi2_max=o["chi2_max"],
                                       angle_floor_deg=o["angle_floor_deg"], min_lines=o["min_family_lines"],
-                                      min_search_pixels=o["family_search_pixels"], max_log_nfa=o["max_log_nfa"])
+                                      min_search_pixels=o["family_search_pixels"], max_log_nfa=o["max_log_nfa"],
+                                      cam=cam if o["concurrency_px"] > 0 else None,
+                                      ends=np.array([[u[0], u[-1]] for u in uv]).reshape(-1, 2, 2),
+                                      concurrency_px=o["concurrency_px"])
     lap("families")
     seconds["total"] = float(sum(seconds.values()))
     return DetectedLines(cam=cam, uv=uv, normal=normals, normal_cov=covs, rms=np.array(rms), polarity=np.array(pol),

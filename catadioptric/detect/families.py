@@ -9,15 +9,28 @@ Line ``i`` agrees with ``s`` when
     chi2_i(s) = (n_i . s)^2 / (s^T C_i s + sin(angle_floor)^2) <= chi2_max
 
 (``angle_floor`` covers what the covariance does not: the detector's own biases, and for a
-non-central rig the model's). Directions are voted for:
+non-central rig the model's). Directions are voted for (sequential RANSAC):
 
 1. hypotheses ``s = n_i x n_j`` from pairs of the ``max_seed_lines`` longest lines (planes less
    than ``min_seed_angle_deg`` apart give no direction);
-2. each hypothesis is scored by the pixels of the lines that agree with it, the best one is
-   refined (:func:`catadioptric.linefit.direction_from_planes`, covariance-weighted, on the
-   lines that agree) and its lines are taken out; repeated while a hypothesis gathers
-   ``min_lines`` lines (sequential RANSAC);
-3. every line is then assigned to the family it agrees with, if exactly one and if its band of
+2. the hypothesis whose agreeing lines are the least likely by chance is taken (a-contrario: its
+   log number of false alarms ``log C(L - 2, k - 2) + sum log eps_i`` over all but the two most
+   precise of its ``k`` lines, ``eps_i`` the width of line i's band of agreement, i.e. the chance
+   that a random direction falls in it; ``L`` the lines still free), refined on the lines that
+   agree (:func:`catadioptric.linefit.direction_from_planes`, covariance-weighted);
+3. a blend of two families (lines of two directions a few degrees apart, agreeing loosely with
+   a compromise) is split: when the lines divide into two sets that each fit a direction of their
+   own with a total chi-square lower by ``split_gain``, the larger set is kept and the rest stays
+   free;
+4. the family is accepted when it has ``min_lines`` lines, reaches ``log NFA <= max_log_nfa`` and
+   is not a concurrency: lines through one point (the edges meeting at a building's corner) lie
+   in planes that all hold the ray to that point and agree with its direction as if they were
+   parallel; such a direction is rejected when most of its lines end within ``concurrency_px``
+   of where it is imaged (parallel lines recede towards their vanishing point but end short of
+   it). Its lines are taken out, and the search goes on;
+5. families less than ``merge_deg`` apart (one family split by the search because its lines'
+   systematic errors exceed their covariance) are merged;
+6. every line is then assigned to the family it agrees with, if exactly one and if its band of
    agreement (``3 sigma``) is at most ``max_band_deg`` wide: a line that agrees with none, with
    several (a line whose plane holds two families' directions, e.g. a horizontal line at the
    height of the rig) or too loosely (a short line) stays unassigned (family -1); families left
@@ -80,13 +93,29 @@ def _log_nfa(eps_agree: np.ndarray, n_free: int) -> float:
     return float(log_comb + np.sum(np.log(e)))
 
 
+def _concurrent(cam, s, ends, radius: float) -> bool:
+    """True when most of the lines (end pixels ``ends (k, 2, 2)``) end within ``radius`` pixels of
+    an image of ``+s`` or ``-s``: lines through one point (a building's corner) whose planes all
+    hold the ray to it, not parallel lines (which recede towards their vanishing point but
+    end short of it)."""
+    vp = cam.vanishing_points(np.stack([s, -s]))
+    pts = np.asarray(vp.uv)[np.asarray(vp.valid)]
+    if len(pts) == 0:
+        return False
+    d = np.linalg.norm(ends[:, :, None, :] - pts[None, None], axis=-1).min(axis=(1, 2))
+    return bool(np.mean(d <= radius) >= 0.5)
+
+
 def group_families(normals, covs, pixels, *, chi2_max: float = 9.0, angle_floor_deg: float = 0.1,
                    min_lines: int = 3, max_seed_lines: int = 60, min_seed_angle_deg: float = 5.0,
                    max_log_nfa: float = -4.0, min_search_pixels: int = 20, max_band_deg: float = 2.0,
+                   cam=None, ends=None, concurrency_px: float = 5.0, merge_deg: float = 2.0, split_gain: float = 25.0,
                    max_families: int = 20) -> tuple[np.ndarray, list[Family]]:
     """Families of lines with plane normals ``normals (L, 3)``, covariances ``covs (L, 3, 3)`` and
-    ``pixels (L,)`` counts (module docstring). Returns ``(family (L,), families)``: each line's
-    family index into ``families`` or -1."""
+    ``pixels (L,)`` counts (module docstring). With ``cam`` and each line's end pixels ``ends
+    (L, 2, 2)``, directions whose lines mostly end at one of its images are rejected as
+    concurrent. Returns ``(family (L,), families)``: each line's family index into ``families``
+    or -1."""
     N = np.asarray(normals, float).reshape(-1, 3)
     C = np.asarray(covs, float).reshape(-1, 3, 3)
     w = np.asarray(pixels, float).reshape(-1)
@@ -108,15 +137,17 @@ def group_families(normals, covs, pixels, *, chi2_max: float = 9.0, angle_floor_
     # each line's chance of agreeing with a random direction: the width of its band of agreement
     band = np.sqrt(chi2_max * (np.einsum("hi,lij,hj->hl", S, C, S) + floor2))  # (H, L)
     free = search.copy()
-    dirs = []
-    for _ in range(max_families):
+    dirs, members = [], []
+    for _ in range(10 * max_families):  # rejected hypotheses count too
+        if len(dirs) >= max_families:
+            break
         agree = (X2 <= chi2_max) & free[None]
         count = agree.sum(axis=1)
         cand = np.flatnonzero(count >= min_lines)
         if len(cand) == 0:
             break
         n_free = int(free.sum())
-        # rank by significance (most negative log NFA first), ties by pixels
+        # rank by significance (most negative log NFA first)
         scores = np.array([_log_nfa(np.minimum(band[h, agree[h]], 1.0), n_free) for h in cand])
         h = int(cand[np.argmin(scores)])
         lines = np.flatnonzero(agree[h])
@@ -128,14 +159,85 @@ def group_families(normals, covs, pixels, *, chi2_max: float = 9.0, angle_floor_
             if np.array_equal(new, lines) or len(new) < min_lines:
                 break
             lines = new
+        sub = _split(N, C, lines, s, floor2, min_lines, split_gain)
+        if sub is not None:  # a blend of two families: keep the better half, the rest stays free
+            lines = sub
+            s, cov = _refine(N, C, lines, s)
         b = np.sqrt(chi2_max * (np.einsum("i,lij,j->l", s, C[lines], s) + floor2))
-        if len(lines) < min_lines or _log_nfa(np.minimum(b, 1.0), n_free) > max_log_nfa:
+        if (len(lines) < min_lines or _log_nfa(np.minimum(b, 1.0), n_free) > max_log_nfa
+                or (cam is not None and _concurrent(cam, s, np.asarray(ends)[lines], concurrency_px))):
             # the hypothesis does not hold up once refined: drop it and go on
             X2[h] = np.inf
             continue
         dirs.append(s)
+        members.append(lines)
         free[lines] = False
+    dirs = _merge_close(N, C, dirs, members, np.radians(merge_deg))
     return _assign(N, C, w, dirs, floor2, chi2_max, min_lines, np.radians(max_band_deg))
+
+
+def _split(N, C, lines, s, floor2, min_lines, gain, tight=4.0):
+    """Two families taken for one: when the lines split into two sets of at least ``min_lines``,
+    each fitting its own direction (chi-square <= ``tight`` per line about a direction through two
+    of its lines), whose total chi-square is lower than the single direction's by more than
+    ``gain``, the set of the larger significance (lines, then total chi-square) is returned;
+    else None."""
+    lines = np.asarray(lines)
+    k = len(lines)
+    if k < 2 * min_lines or gain <= 0:
+        return None
+    single = float(np.sum(_chi2(N[lines], C[lines], s[None], floor2)))
+    i, j = np.triu_indices(k, 1)
+    H = np.cross(N[lines[i]], N[lines[j]])
+    hn = np.linalg.norm(H, axis=1)
+    keep = hn > 1e-9
+    if not keep.any():
+        return None
+    H = H[keep] / hn[keep, None]
+    X = _chi2(N[lines], C[lines], H, floor2)  # (H, k)
+    tight_n = (X <= tight).sum(axis=1)
+    best = None
+    for h in np.argsort(-tight_n)[:20]:
+        a = X[h] <= tight
+        if a.sum() < min_lines or (~a).sum() < min_lines:
+            continue
+        sa, _ = _refine(N, C, lines[a], H[h])
+        rest = lines[~a]
+        # the rest's own best direction (through two of its lines)
+        ii, jj = np.triu_indices(len(rest), 1)
+        Hb = np.cross(N[rest[ii]], N[rest[jj]])
+        nb = np.linalg.norm(Hb, axis=1)
+        if not (nb > 1e-9).any():
+            continue
+        Hb = Hb[nb > 1e-9] / nb[nb > 1e-9, None]
+        sb = Hb[int(np.argmin(np.sum(np.minimum(_chi2(N[rest], C[rest], Hb, floor2), 9.0), axis=1)))]
+        sb, _ = _refine(N, C, rest, sb)
+        total = float(np.sum(_chi2(N[lines[a]], C[lines[a]], sa[None], floor2))
+                      + np.sum(_chi2(N[rest], C[rest], sb[None], floor2)))
+        if single - total > gain and (best is None or total < best[0]):
+            best = (total, lines[a] if a.sum() >= (~a).sum() else rest)
+    return None if best is None else best[1]
+
+
+def _merge_close(N, C, dirs, members, max_angle):
+    """Directions found twice merged: two families less than ``max_angle`` apart (one family whose
+    lines' systematic errors exceed their covariance, split by the sequential search) become one,
+    its direction refitted on both sets of lines."""
+    dirs, members = list(dirs), [np.asarray(m) for m in members]
+    while len(dirs) > 1:
+        D = np.array(dirs)
+        ang = np.arccos(np.clip(np.abs(D @ D.T), 0.0, 1.0))
+        np.fill_diagonal(ang, np.inf)
+        i, j = np.unravel_index(int(np.argmin(ang)), ang.shape)
+        if ang[i, j] >= max_angle:
+            break
+        lines = np.union1d(members[i], members[j])
+        s, _ = _refine(N, C, lines, dirs[i] if len(members[i]) >= len(members[j]) else dirs[j])
+        for k in sorted((i, j), reverse=True):
+            del dirs[k], members[k]
+        dirs.append(s)
+        members.append(lines)
+    return dirs
 
 
 def _agree(N, C, D, floor2, chi2_max, max_band):
