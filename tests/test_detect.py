@@ -147,6 +147,16 @@ def test_synthetic_families_are_the_true_directions(synthetic):
             assert abs(det.normal[i] @ s) < np.radians(1.0)
 
 
+def test_16_bit_and_float_images_give_the_same_lines():
+    cam = load_rig("hyperboloid_central", width=320, height=240)
+    img, _ = _synthetic(cam, _scene()[0])
+    ref = detect_lines(img, cam)
+    for other in (img.astype(np.uint16) * 257, img / 255.0, img[..., 0]):
+        det = detect_lines(other, cam)
+        assert len(det) == len(ref) and len(det.families) == len(ref.families)
+        assert all(np.allclose(a, b, atol=1e-6) for a, b in zip(det.uv, ref.uv))
+
+
 def test_view_lines_feed_the_relative_pose_estimator():
     from catadioptric.pose import ViewLines, fit_view_families
 

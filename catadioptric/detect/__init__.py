@@ -4,7 +4,8 @@
 region, the two edges of each line tube paired into its centre line, chains, line curves (the
 plane holding each line's rays, robust along chains, pieces of one line merged) and families of
 parallel lines; ``DetectedLines.to_view_lines()`` gives the relative-pose estimator's input.
-``evaluate_view`` scores a detection against a rendered view's labels. See docs/detect.md.
+``evaluate_view`` scores a detection against a rendered view's labels, ``evaluate_dataset`` every
+view of a dataset (with a report). See docs/detect.md.
 
 | stage | module |
 |---|---|
@@ -19,12 +20,16 @@ parallel lines; ``DetectedLines.to_view_lines()`` gives the relative-pose estima
 | the orchestration and options | `detector.py` |
 | the result and its conversions | `result.py` |
 | scores against the labels | `evaluate.py` |
+| datasets scored, reports | `report.py` |
+| the overlay image | `overlay.py` |
+| `catadioptric detect` | `cli.py` |
 """
 from __future__ import annotations
 
 from .detector import DEFAULTS, detect_lines
 from .evaluate import evaluate_view, label_curves
 from .families import Family
+from .report import evaluate_dataset
 from .result import DetectedLines
 
-__all__ = ["detect_lines", "DetectedLines", "Family", "DEFAULTS", "evaluate_view", "label_curves"]
+__all__ = ["detect_lines", "DetectedLines", "Family", "DEFAULTS", "evaluate_view", "label_curves", "evaluate_dataset"]

@@ -1,15 +1,16 @@
-"""Linking centre points into chains: ordered lists of points along one band, split where the
-band turns a corner, meets another (a junction) or changes polarity.
+"""Linking points (band centres and step edges, :mod:`catadioptric.detect.centres`) into chains:
+ordered lists of points along one line of the image.
 
-Each point is linked to its best neighbour ahead and its best neighbour behind along its tangent
-(within ``radius`` pixels, at most ``max_lateral`` pixels plus a third of the distance ahead off
-the tangent, tangents within ``max_turn_deg``, the same polarity, widths within a factor 2);
-a link is kept when both points choose it. Every point then has at most two links, so the
-linked components are paths (or closed loops, opened at one point), walked from one end.
-Points closer than ``min_step`` along the tangent are not linked (the two edges of a band give
-two midpoints per pixel of length; the walk keeps about every other one), and the walked chain
-is resampled to one point per ``step`` pixels of arc length (the mean of the points in each
-step), so that a chain's points are evenly spread whatever the edge density.
+1. :func:`link_chains`: each point is linked to its best neighbour ahead and its best neighbour
+   behind along its tangent (within ``radius`` pixels, at most ``max_lateral`` pixels plus a third
+   of the distance ahead off the tangent, tangents within ``max_turn_deg``, the same polarity,
+   band widths within a factor 2); a link is kept when both points choose it. Every point then
+   has at most two links, so the linked components are paths (or closed loops, opened at one
+   point), walked from one end, each resampled to one point per ``step`` pixels of arc length
+   (the mean of the points in each step). A chain ends where the band turns a corner, meets
+   another (a junction) or changes polarity.
+2. :func:`join_chains`: chains joined end to end where one continues another, whatever their
+   polarity (see its docstring).
 """
 from __future__ import annotations
 
@@ -53,8 +54,9 @@ def link_chains(c: Centres, *, radius: float = 2.0, max_lateral: float = 0.75, m
                 min_step: float = 0.25, step: float = 1.0, min_points: int = 2) -> list[dict]:
     """Chains of the centre points ``c``: a list of dicts, each with ``uv (M, 2)`` (resampled to
     one point per ``step`` pixels of arc length, in order), ``members`` (indices of the points of
-    ``c`` walked, in order), ``polarity``, ``width`` (median), ``strength`` (median). Chains with
-    fewer than ``min_points`` resampled points are left out."""
+    ``c`` walked, in order), ``polarity``, ``width`` (median), ``strength`` (median). Points less
+    than ``min_step`` apart along the tangent are not linked (near duplicates). Chains with fewer
+    than ``min_points`` resampled points are left out."""
     N = len(c)
     if N == 0:
         return []
