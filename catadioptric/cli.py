@@ -16,6 +16,7 @@ SUBCOMMAND_MODULES = [
     "catadioptric.validate.cli",
     "catadioptric.export",
     "catadioptric.detect.cli",
+    "catadioptric.twoview",
 ]
 
 

@@ -168,3 +168,26 @@ def test_without_labels_families_and_lines_are_matched_by_the_geometry():
                                                    r"matched across the views"):
         relative_pose(ViewLines(va.cam, va.uv, fa, None), ViewLines(vb.cam, vb.uv, fb, None),
                       ends={"a1": (np.eye(3)[0], np.eye(3)[0])})
+
+
+def test_a_motion_prior_rules_out_the_symmetric_answers():
+    """Two orthogonal families: the half-turn fits the directions exactly. A prior on the turn
+    (``max_rotation_deg``, views a short walk apart) leaves the right answer; a prior the true turn
+    exceeds is refused, naming the candidates' turns. The same without labels."""
+    va, vb, R_gt, _ = _pair("hyperboloid", noise=1.0, seed=2, directions=np.eye(3)[:2])
+    turn = rotation_angle_deg(R_gt)
+    res = relative_pose(va, vb, max_rotation_deg=60.0)
+    assert rotation_angle_deg(res.R @ R_gt.T) < 2.0
+    assert all(rotation_angle_deg(c.R) <= 60.0 for c in res.candidates)
+    assert any("max_rotation_deg = 60.0" in n for n in res.notes)
+    with pytest.raises(cd.CatadioptricError, match=r"max_rotation_deg: no sign pattern of the families turns by at "
+                                                   r"most 5\.0 degrees \(the candidates turn by \["):
+        relative_pose(va, vb, max_rotation_deg=5.0)
+    with pytest.raises(cd.CatadioptricError, match=r"max_rotation_deg: expected a positive number, got -1"):
+        relative_pose(va, vb, max_rotation_deg=-1)
+    fa = [f"a{f}" for f in va.family]
+    fb = [f"b{(f + 1) % 2}" for f in vb.family]
+    res = relative_pose(ViewLines(va.cam, va.uv, fa, None), ViewLines(vb.cam, vb.uv, fb, None),
+                        max_rotation_deg=turn + 20.0)
+    assert rotation_angle_deg(res.R @ R_gt.T) < 2.0, res.notes
+    assert "within the prior max_rotation_deg" in res.notes[0]

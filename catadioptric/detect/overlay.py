@@ -13,11 +13,14 @@ FAMILY_COLOURS = [(230, 25, 75), (60, 180, 75), (255, 225, 25), (0, 130, 200), (
 _UNASSIGNED = (160, 160, 160)
 
 
-def overlay_image(image, det, *, scale: int = 2, truth: list | None = None, vanishing_points: bool = True) -> np.ndarray:
+def overlay_image(image, det, *, scale: int = 2, truth: list | None = None, vanishing_points: bool = True,
+                  colours: dict | None = None) -> np.ndarray:
     """RGB ``uint8`` image, ``scale`` times the size of ``image``: the image darkened, ``det``'s
     lines (a :class:`~catadioptric.detect.DetectedLines`) drawn by family, the families' vanishing
     points (when ``vanishing_points``) as rings; ``truth``: optional labelled curves (dicts with
-    ``uv``) drawn thin in white underneath."""
+    ``uv``) drawn thin in white underneath. ``colours``: ``{family index: colour index}`` (into
+    ``FAMILY_COLOURS``) to colour families as another view's (families left out are drawn grey,
+    without their vanishing points); default: each family its own index."""
     import cv2
 
     from .image import to_grey
@@ -42,12 +45,15 @@ def overlay_image(image, det, *, scale: int = 2, truth: list | None = None, vani
 
     for t in truth or []:
         poly(t["uv"], (255, 255, 255), 1)
+    colour_of = {f: f for f in range(len(det.families))} if colours is None else colours
     for i, uv in enumerate(det.uv):
-        f = int(det.family[i])
-        poly(uv, FAMILY_COLOURS[f % len(FAMILY_COLOURS)] if f >= 0 else _UNASSIGNED, 2 if f >= 0 else 1)
+        c = colour_of.get(int(det.family[i]))
+        poly(uv, FAMILY_COLOURS[c % len(FAMILY_COLOURS)] if c is not None else _UNASSIGNED, 2 if c is not None else 1)
     if vanishing_points:
         for f, fam in enumerate(det.families):
-            col = FAMILY_COLOURS[f % len(FAMILY_COLOURS)]
+            if colour_of.get(f) is None:
+                continue
+            col = FAMILY_COLOURS[colour_of[f] % len(FAMILY_COLOURS)]
             for s in (fam.direction, -fam.direction):
                 try:
                     vp = det.cam.vanishing_points(s)

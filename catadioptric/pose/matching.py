@@ -44,11 +44,14 @@ def _sd(C):
     return float(np.sqrt(max(np.trace(C), 0.0)))
 
 
-def family_matches(ea: dict, eb: dict, *, max_cost_gap: float = 100.0, max_matches: int = 24,
-                   same_deg: float = 1.0) -> list[FamilyMatch]:
+def family_matches(ea: dict, eb: dict, *, max_cost_gap: float = 100.0, max_matches: int = 48,
+                   same_deg: float = 1.0, max_rotation_deg: float | None = None) -> list[FamilyMatch]:
     """The assignments of B's families to A's (with signs) that a rotation allows, best first.
 
-    ``ea``, ``eb``: ``{family: FamilyEstimate}`` of each view (any keys: they need not agree)."""
+    ``ea``, ``eb``: ``{family: FamilyEstimate}`` of each view (any keys: they need not agree).
+    ``max_rotation_deg``: only rotations that turn by at most this (a prior on the motion).
+    An orthogonal triad of families fits 24 rotations equally well and the directions' costs
+    then rank them by their small biases, so ``max_matches`` keeps twice that."""
     ka, kb = list(ea), list(eb)
     sa = np.array([ea[k].direction for k in ka])
     sb = np.array([eb[k].direction for k in kb])
@@ -66,6 +69,8 @@ def family_matches(ea: dict, eb: dict, *, max_cost_gap: float = 100.0, max_match
                 if abs(sa[i1] @ sa[i2] - g1 * g2 * (sb[j1] @ sb[j2])) > tol:
                     continue
                 R = rotation_from_directions(sa[[i1, i2]], sb[[j1, j2]] * np.array([g1, g2])[:, None])
+                if max_rotation_deg is not None and rotation_angle_deg(R) > max_rotation_deg + 10.0:
+                    continue
                 pred = sa @ R.T  # A's directions in B
                 mapping = {}
                 for j in range(len(kb)):
@@ -86,6 +91,8 @@ def family_matches(ea: dict, eb: dict, *, max_cost_gap: float = 100.0, max_match
                 B_ = np.array([eb[b].direction * mapping[b][1] for b in bs])
                 fit = refine_rotation(A_, B_, np.array([ea[mapping[b][0]].cov for b in bs]),
                                       np.array([eb[b].cov for b in bs]), R)
+                if max_rotation_deg is not None and rotation_angle_deg(fit.R) > max_rotation_deg:
+                    continue
                 out.append(FamilyMatch(mapping, fit.R, fit.cost + 9.0 * (len(kb) - len(mapping))))
     out.sort(key=lambda m: m.cost)
     kept = []

@@ -57,7 +57,9 @@ class Candidate:
     fit: object = None
 
     def summary(self) -> dict:
-        return {"signs": {str(k): int(v) for k, v in self.signs.items()}, "R": self.R, "t": self.t,
+        # signs: {family: sign}, or {family of B: (family of A, sign)} when the families were matched here
+        signs = {str(k): (int(v) if not isinstance(v, tuple) else [str(v[0]), int(v[1])]) for k, v in self.signs.items()}
+        return {"signs": signs, "R": self.R, "t": self.t,
                 "cost": self.cost, "direction_cost": self.direction_cost}
 
 
@@ -290,7 +292,7 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, s
 
 def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = None, seed=0, f_scale: float = 1.0,
                   pixel_sigma: float | None = None, decisive: float = 25.0, max_pixels: int | None = 40,
-                  min_families: int = 2) -> RelativePose:
+                  min_families: int = 2, max_rotation_deg: float | None = None) -> RelativePose:
     """The relative pose ``x_B = R x_A + t`` of two views from the lines they see.
 
     ``view_a``, ``view_b``: :class:`ViewLines`. ``ends``: ``{family: (hint_a, hint_b)}``, for
@@ -299,17 +301,35 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
     known and nothing is searched. ``f_scale``: pixel scale of the robust losses;
     ``pixel_sigma``: known pixel noise (default: estimated). ``decisive``: the margin (chi-square
     units) the best candidate needs over the second. ``max_pixels``: pixels per line and view
-    used (evenly spaced). Raises :class:`CatadioptricError` naming the cause when fewer than
-    ``min_families`` families are seen in both views.
+    used (evenly spaced). ``max_rotation_deg``: a prior on the motion (views a short walk apart,
+    frames of a video): candidates that turn by more than this are not considered; the symmetric
+    answers of a Manhattan scene (half-turns, quarter-turns) are then ruled out by the prior
+    rather than by the lines, and the notes say so. Raises :class:`CatadioptricError` naming the
+    cause when fewer than ``min_families`` families are seen in both views, or when no candidate
+    is within ``max_rotation_deg``.
     """
     from threadpoolctl import threadpool_limits
 
     # every linear solve here is small: a multithreaded BLAS only fights other work for the cores
     with threadpool_limits(1):
-        return _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families)
+        return _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families,
+                              max_rotation_deg)
 
 
-def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families):
+def _within_prior(cands, max_rotation_deg, what):
+    """The candidates (anything with ``.R``) that turn by at most ``max_rotation_deg``."""
+    if max_rotation_deg is None:
+        return cands
+    kept = [c for c in cands if rotation_angle_deg(c.R) <= max_rotation_deg]
+    if not kept:
+        angles = sorted(round(rotation_angle_deg(c.R), 1) for c in cands)
+        raise CatadioptricError(f"max_rotation_deg: no {what} turns by at most {max_rotation_deg} degrees (the "
+                                f"candidates turn by {angles})")
+    return kept
+
+
+def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families,
+                   max_rotation_deg=None):
     if not isinstance(view_a, ViewLines) or not isinstance(view_b, ViewLines):
         raise CatadioptricError(f"view_a, view_b: expected ViewLines, got {type(view_a).__name__} and "
                                 f"{type(view_b).__name__}")
@@ -317,6 +337,8 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
     f_scale = as_scalar(f_scale, "f_scale", positive=True)
     if pixel_sigma is not None:
         pixel_sigma = as_scalar(pixel_sigma, "pixel_sigma", positive=True)
+    if max_rotation_deg is not None:
+        max_rotation_deg = as_scalar(max_rotation_deg, "max_rotation_deg", positive=True)
     central = is_central(view_a.cam)
     if central != is_central(view_b.cam):
         raise CatadioptricError("view_a, view_b: expected two central or two non-central cameras, got one of each")
@@ -324,7 +346,8 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
         if ends is not None:
             raise CatadioptricError("ends: the ends of families can only be given for families matched across "
                                     "the views; these views' lines carry no line_id (nothing is matched)")
-        return _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families)
+        return _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families,
+                          max_rotation_deg)
     fa, fb = view_a.families(), view_b.families()
     common = [k for k in fa if k in fb]
     if ends is not None:
@@ -360,6 +383,11 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
     # otherwise make every pixel an outlier of a loss a thousandth of a pixel wide)
     sigma_cost = pixel_sigma if pixel_sigma is not None else max(sigma_est, 0.1 * f_scale)
     cands = sign_candidates(a, b, Ca, Cb, signs=np.ones(len(keys)) if ends is not None else None)
+    n_all = len(cands)
+    cands = _within_prior(cands, max_rotation_deg, "sign pattern of the families")
+    if len(cands) < n_all:
+        notes.append(f"{n_all - len(cands)} of {n_all} sign patterns turn by more than max_rotation_deg = "
+                     f"{max_rotation_deg} degrees: not considered")
     # stage 1: directions and the rays where lines meet, for every candidate (cheap)
     rays = meeting_rays(view_a, view_b, ea, eb, keys)
     stage = []
@@ -423,7 +451,7 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
                         estimates=(ea, eb), notes=notes)
 
 
-def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families):
+def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families, max_rotation_deg):
     """Relative pose when nothing is matched across the views (lines from each image alone): the
     family assignments a rotation allows (:func:`~catadioptric.pose.matching.family_matches`), for
     each the lines matched by where they meet (:func:`~catadioptric.pose.matching.match_lines`),
@@ -441,10 +469,11 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
     sigmas = [e.sigma for e in list(ea.values()) + list(eb.values()) if np.isfinite(e.sigma)]
     sigma = pixel_sigma if pixel_sigma is not None else max(float(np.median(sigmas)) if sigmas else f_scale,
                                                             0.1 * f_scale)
-    matches = family_matches(ea, eb)
+    matches = family_matches(ea, eb, max_rotation_deg=max_rotation_deg)
     if not matches:
         raise CatadioptricError(f"views: no assignment of the {len(eb)} families of B to the {len(ea)} of A fits a "
-                                "rotation")
+                                "rotation" + ("" if max_rotation_deg is None else
+                                              f" that turns by at most max_rotation_deg = {max_rotation_deg} degrees"))
     scored = []
     for m in matches:
         lm = match_lines(view_a, view_b, ea, eb, m, sigma_px=sigma, seed=seed)
@@ -454,23 +483,26 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
     others = [s for s, m, _ in scored[1:] if rotation_angle_deg(m.R @ best.R.T) > _SAME_DEG]
     margin = (min(others) - best_score) if others else float("inf")
     # relabel: B's families as A's (with the assignment's signs), matched lines with one id
-    a_id = [None] * len(view_a.uv)
-    b_id = [None] * len(view_b.uv)
+    # lines left unmatched keep an id of their own view (seen in one view only)
+    a_id = [f"a{i}" for i in range(len(view_a.uv))]
+    b_id = [f"b{j}" for j in range(len(view_b.uv))]
     for a_line, b_line in lines.pairs:
         a_id[a_line] = b_id[b_line] = f"line{a_line}"
     fam_b = [best.mapping[f][0] if f in best.mapping else ("unmatched", f) for f in view_b.family]
     va = ViewLines(view_a.cam, view_a.uv, view_a.family, a_id)
     vb = ViewLines(view_b.cam, view_b.uv, fam_b, b_id)
     ends = {a: (ea[a].direction, eb[b].direction * sign) for b, (a, sign) in best.mapping.items()}
-    res = _relative_pose(va, vb, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families)
+    res = _relative_pose(va, vb, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families,
+                         max_rotation_deg)
     res.candidates = [Candidate({str(b): (str(a), int(s)) for b, (a, s) in m.mapping.items()}, m.R,
                                 None if lm.t is None else lm.t, score, m.cost, None, lm) for score, m, lm in scored]
     res.candidates[0] = Candidate(res.candidates[0].signs, res.R, res.t, best_score, best.cost, res.cov, lines)
     res.margin = float(margin)
     res.ambiguous = bool(margin < decisive)
-    res.notes = [f"families and lines matched without labels: {len(best.mapping)} families, {len(lines.pairs)} "
-                 f"lines ({lines.n_inliers} of {lines.n_crossings} meeting points of A found in B); "
-                 f"{len(scored)} family assignments tried"] + res.notes
+    prior = "" if max_rotation_deg is None else f" (within the prior max_rotation_deg = {max_rotation_deg})"
+    res.notes = [(f"families and lines matched without labels: {len(best.mapping)} families, {len(lines.pairs)} "
+                  f"lines ({lines.n_inliers} of {lines.n_crossings} meeting points of A found in B); "
+                  f"{len(scored)} family assignments tried{prior}"), *res.notes]
     res.notes += [f"family {k} of A not used: {v}" for k, v in fail_a.items()]
     res.notes += [f"family {k} of B not used: {v}" for k, v in fail_b.items()]
     return res

@@ -6,6 +6,8 @@ Layout: the working folder ``data`` (large, not for committing) and the report f
 
     data/datasets/<config>_<renderer>/  the rendered views (catadioptric render format)
     data/results/<config>/pNN.json      one pair's draws (written atomically; reruns skip them)
+    data/results_images/<config>/pNN.json, pNN.png
+                                        the image-only path on the pair (``images=True``) and its overlay
     out/report.json, report.md, *.png   the aggregate, every pair's draws included (written last)
 """
 from __future__ import annotations
@@ -58,35 +60,51 @@ def render_benchmark(spec: dict, data: str, *, workers: int = 1, progress: bool 
     return manifests
 
 
-def _fingerprint(spec: dict, config: dict, pair) -> str:
-    keys = ("scene", "resolution", "quality", "seed", "noise_px", "draws", "pixels", "min_pixels", "max_pixels",
-            "placement")
-    d = {k: spec[k] for k in keys} | {"config": config, "pair": pair.index}
+#: what each kind of evaluation reads from the spec (its results are reused while these are unchanged)
+_KEYS = {"labels": ("scene", "resolution", "quality", "seed", "noise_px", "draws", "pixels", "min_pixels",
+                    "max_pixels", "placement"),
+         "images": ("scene", "resolution", "quality", "seed", "min_pixels", "placement", "images")}
+_FOLDER = {"labels": "results", "images": "results_images"}
+
+
+def _fingerprint(spec: dict, config: dict, pair, kind: str = "labels") -> str:
+    d = {k: spec[k] for k in _KEYS[kind]} | {"config": config, "pair": pair.index}
     return hashlib.sha256(json.dumps(jsonable(d), sort_keys=True).encode()).hexdigest()
 
 
 def _evaluate_pair(args) -> dict:
-    spec, config, pair, folder, path, fp = args
+    spec, config, pair, folder, path, fp, kind = args
     from .relative_pose import evaluate_pair
 
     t0 = time.perf_counter()
-    res = evaluate_pair(folder, pair.names, noise_levels=spec["noise_px"], draws=spec["draws"],
-                        seed=[spec["seed"], pair.index], pixels=spec["pixels"], min_pixels=spec["min_pixels"],
-                        max_pixels=spec["max_pixels"])
+    if kind == "images":
+        from .image_pairs import evaluate_image_pair
+
+        res = evaluate_image_pair(folder, pair.names, priors=(None, *spec["images"]["max_rotation_deg"]),
+                                  min_pixels=spec["min_pixels"], overlay=path[:-len(".json")] + ".png")
+    else:
+        res = evaluate_pair(folder, pair.names, noise_levels=spec["noise_px"], draws=spec["draws"],
+                            seed=[spec["seed"], pair.index], pixels=spec["pixels"], min_pixels=spec["min_pixels"],
+                            max_pixels=spec["max_pixels"])
     res.update({"config": config["name"], "rig": config["rig"], "pair": pair.index, "renderer": pair.renderer,
                 "fingerprint": fp, "seconds": time.perf_counter() - t0})
     atomic_write_json(path, jsonable(res))
     return res
 
 
-def evaluate_benchmark(spec: dict, data: str, *, workers: int = 1, progress: bool = True) -> list[dict]:
+def evaluate_benchmark(spec: dict, data: str, *, workers: int = 1, progress: bool = True,
+                       kind: str = "labels") -> list[dict]:
     """Evaluate every pair (resuming: a pair whose result file has this spec's fingerprint is
-    read back, not recomputed). Returns the pair results in spec order."""
+    read back, not recomputed). ``kind``: ``"labels"`` (the line pixels and families from the
+    labels, every noise level) or ``"images"`` (the image-only path,
+    :mod:`catadioptric.validate.image_pairs`). Returns the pair results in spec order."""
+    if kind not in _KEYS:
+        raise CatadioptricError(f"kind: expected one of {list(_KEYS)}, got {kind!r}")
     tasks, results = [], {}
     for config in spec["configs"]:
         for p in pairs_of(spec, config):
-            path = os.path.join(data, "results", config["name"], f"p{p.index:02d}.json")
-            fp = _fingerprint(spec, config, p)
+            path = os.path.join(data, _FOLDER[kind], config["name"], f"p{p.index:02d}.json")
+            fp = _fingerprint(spec, config, p, kind)
             key = (config["name"], p.index)
             try:
                 with open(path) as f:
@@ -97,12 +115,12 @@ def evaluate_benchmark(spec: dict, data: str, *, workers: int = 1, progress: boo
             except (OSError, ValueError):
                 pass
             os.makedirs(os.path.dirname(path), exist_ok=True)
-            tasks.append((key, (spec, config, p, dataset_folder(data, config["name"], p.renderer), path, fp)))
+            tasks.append((key, (spec, config, p, dataset_folder(data, config["name"], p.renderer), path, fp, kind)))
     bar = None
     if progress and tasks:
         from tqdm import tqdm
 
-        bar = tqdm(total=len(tasks), unit="pair", desc="evaluate", file=sys.stderr, dynamic_ncols=True)
+        bar = tqdm(total=len(tasks), unit="pair", desc=f"evaluate ({kind})", file=sys.stderr, dynamic_ncols=True)
     try:
         if workers <= 1 or len(tasks) <= 1:
             for key, a in tasks:
@@ -127,9 +145,10 @@ def evaluate_benchmark(spec: dict, data: str, *, workers: int = 1, progress: boo
 
 
 def run_benchmark(spec: dict, out: str, *, data: str | None = None, workers: int = 1, progress: bool = True,
-                  command: str = "") -> dict:
+                  command: str = "", images: bool = False) -> dict:
     """Render, evaluate and write the report into ``out``; the datasets and per-pair results go to
-    ``data`` (default ``out``). Returns the aggregate."""
+    ``data`` (default ``out``). ``images``: also the image-only path on every pair (its table
+    and one overlay per configuration in the report). Returns the aggregate."""
     data = out if data is None else data
     from .benchmark_report import write_benchmark_report
 
@@ -140,5 +159,11 @@ def run_benchmark(spec: dict, out: str, *, data: str | None = None, workers: int
     t1 = time.perf_counter()
     results = evaluate_benchmark(spec, data, workers=workers, progress=progress)
     t2 = time.perf_counter()
-    return write_benchmark_report(spec, results, out, command=command,
-                                  timing={"render_seconds": t1 - t0, "evaluate_seconds": t2 - t1})
+    image_results = evaluate_benchmark(spec, data, workers=workers, progress=progress, kind="images") if images else None
+    t3 = time.perf_counter()
+    overlays = None
+    if images:  # the first pair of each configuration
+        overlays = {c["name"]: os.path.join(data, _FOLDER["images"], c["name"], "p00.png") for c in spec["configs"]}
+    return write_benchmark_report(spec, results, out, command=command, image_results=image_results,
+                                  overlays=overlays, timing={"render_seconds": t1 - t0, "evaluate_seconds": t2 - t1,
+                                                             "images_seconds": t3 - t2})

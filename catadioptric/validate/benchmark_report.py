@@ -10,7 +10,7 @@ import numpy as np
 from .._io import atomic_write_bytes, atomic_write_json, jsonable
 from .report import md_table
 
-__all__ = ["aggregate", "write_benchmark_report", "benchmark_markdown"]
+__all__ = ["aggregate", "aggregate_images", "write_benchmark_report", "benchmark_markdown", "images_markdown"]
 
 PAPER_FROBENIUS_2PX = 0.0446  # Miraldo, Eiras, Ramalingam, CVPR 2018, Sec. 5.4 (one POV-Ray pair, 2 px)
 
@@ -153,6 +153,98 @@ def benchmark_markdown(spec: dict, agg: dict, results: list, command: str, timin
     return "\n".join(L)
 
 
+def _prior_key(p) -> str:
+    return "none" if p is None else f"{float(p):g}"
+
+
+def aggregate_images(spec: dict, results: list, image_results: list) -> dict:
+    """The image-only path per configuration and renderer (and both renderers): detection scores
+    (means over the views), family matching (fractions of pairs), rotation and translation errors
+    per motion prior (answered draws), ambiguous and wrong-unflagged counts, and the label path's
+    rotation error on the same pairs at each noise level."""
+    out = {}
+    for config in spec["configs"]:
+        name = config["name"]
+        for renderer in [*spec["renderers"], "all"]:
+            ims = [r for r in image_results if r["config"] == name and renderer in ("all", r["renderer"])]
+            labs = [r for r in results if r["config"] == name and renderer in ("all", r["renderer"])]
+            if not ims:
+                continue
+            det = [v for r in ims for v in r["detection"]]
+
+            def mean(k, det=det):
+                x = [v[k] for v in det if v.get(k) is not None]
+                return float(np.mean(x)) if x else None
+
+            e = {"pairs": len(ims), "recovered": mean("recovered_fraction"),
+                 "family_precision": mean("family_precision"), "family_recall": mean("family_recall"),
+                 "family_recall_3": mean("family_recall_3"), "seconds_per_pair": _q([r["seconds"] for r in ims]),
+                 "turn_deg_max": float(max(r["turn_deg"] for r in ims)),
+                 "priors": {}}
+            for k, prior in enumerate((None, *spec["images"]["max_rotation_deg"])):
+                runs = [r["runs"][k] for r in ims if k < len(r["runs"])]
+                ok = [x for x in runs if "error" not in x]
+                clear = [x for x in ok if not x["ambiguous"]]
+                e["priors"][_prior_key(prior)] = {
+                    "runs": len(runs), "failed": len(runs) - len(ok), "ambiguous": sum(x["ambiguous"] for x in ok),
+                    "same_families": float(np.mean([x["same_families"] for x in ok])) if ok else None,
+                    "families_right": float(np.mean([x["families_right"] for x in ok])) if ok else None,
+                    "families_recall": _q([x["families_recall"] for x in ok]),
+                    "rotation_deg": _q([x["rotation_error_deg"] for x in clear]),
+                    "rotation_deg_all": _q([x["rotation_error_deg"] for x in ok]),
+                    "translation_m": _q([x["translation_error_m"] for x in clear]),
+                    "translation_direction_deg": _q([x["translation_direction_error_deg"] for x in clear]),
+                    "over_10deg_unflagged": sum(x["rotation_error_deg"] > 10 for x in clear)}
+            e["labels_rotation_deg"] = {
+                str(n): _q([d["rotation_error_deg"] for r in labs for d in r["draws"]
+                            if abs(d["noise_px"] - n) < 1e-12 and "error" not in d and not d["ambiguous"]])
+                for n in spec["noise_px"]}
+            out[f"{name}/{renderer}"] = e
+    return out
+
+
+def images_markdown(spec: dict, agg_im: dict, overlays: dict) -> str:
+    """The report's section on the image-only path."""
+    priors = [_prior_key(p) for p in (None, *spec["images"]["max_rotation_deg"])]
+    noises = spec["noise_px"]
+    L = ["## From the images alone (no labels)", "",
+         "The same pairs through `catadioptric relative-pose IMAGE_A IMAGE_B` (catadioptric.twoview): lines and "
+         "families detected in each beauty image (docs/detect.md), families and lines matched across the views "
+         "and the pose estimated without any label; the labels only score it "
+         "(catadioptric.validate.image_pairs). *Detection*: means over the views of the labelled pixels recovered "
+         "and of the detected families' precision and recall. *Same families*: the pairs whose matched families "
+         "are all right (same true family, right end) and cover every family the label path uses. Each prior "
+         "`max_rotation_deg` rules out candidates that turn by more (the views here turn by at most "
+         f"{max(e['turn_deg_max'] for e in agg_im.values()):.1f} degrees); `none`: no prior.", "",
+         md_table(["configuration / renderer", "pairs", "recovered", "family precision", "family recall",
+                   "seconds per pair"],
+                  [[k, e["pairs"], e["recovered"], e["family_precision"], e["family_recall"],
+                    _fmt(e["seconds_per_pair"], 3)] for k, e in agg_im.items()]), ""]
+    rows = []
+    for k, e in agg_im.items():
+        for p in priors:
+            q = e["priors"][p]
+            rows.append([k, p, q["runs"], q["failed"], q["ambiguous"], q["over_10deg_unflagged"],
+                         "-" if q["same_families"] is None else f"{q['same_families']:.2f}",
+                         "-" if q["families_right"] is None else f"{q['families_right']:.2f}",
+                         _fmt(q["rotation_deg"]), _fmt(q["translation_m"]), _fmt(q["translation_direction_deg"])])
+    L += ["### Pose from the images", "", "Errors over the answered (not ambiguous) pairs.", "",
+          md_table(["configuration / renderer", "prior (deg)", "pairs", "failed", "ambiguous",
+                    "> 10 deg off, not flagged", "same families", "matched families all right", "rotation (deg)",
+                    "translation (m)", "translation direction (deg)"], rows), ""]
+    rows = [[k, _fmt(e["priors"][priors[-1]]["rotation_deg"])] + [_fmt(e["labels_rotation_deg"][str(n)])
+                                                                  for n in noises] for k, e in agg_im.items()]
+    L += ["### Next to the label path on the same pairs (rotation error, degrees)", "",
+          md_table(["configuration / renderer", f"images (prior {priors[-1]})"]
+                   + [f"labels, {n:g} px" for n in noises], rows), ""]
+    if overlays:
+        L += ["### Overlays (first pair of each configuration)", "",
+              "Detected lines coloured by family; B's families in the colour of the family of A they were matched "
+              "to (grey: unmatched or unassigned); rings: the matched families' vanishing points.", ""]
+        L += [f"![{n}](images_{n}.png)" for n in overlays] + [""]
+    return "\n".join(L)
+
+
 def _merge(qs):
     ns = [q for q in qs if q and q.get("median") is not None]
     if not ns:
@@ -195,12 +287,24 @@ def _plot(agg, spec, field, ylabel, models, fname_title):
     return buf.getvalue()
 
 
-def write_benchmark_report(spec: dict, results: list, out: str, *, command: str, timing: dict) -> dict:
+def write_benchmark_report(spec: dict, results: list, out: str, *, command: str, timing: dict,
+                           image_results: list | None = None, overlays: dict | None = None) -> dict:
     """Write ``report.json`` (spec, aggregates, every pair's draws), ``report.md``, ``rotation.png``,
-    ``translation.png`` into ``out``; returns the aggregate."""
+    ``translation.png`` into ``out`` (and, with ``image_results``, the image-only section and
+    ``images_<config>.png`` from ``overlays``: ``{config: PNG path}``); returns the aggregate."""
     agg = aggregate(spec, results)
     os.makedirs(out, exist_ok=True)
     md = benchmark_markdown(spec, agg, results, command, timing)
+    agg_im = None
+    if image_results is not None:
+        agg_im = aggregate_images(spec, results, image_results)
+        shown = {}
+        for name, path in (overlays or {}).items():
+            if os.path.isfile(path):
+                with open(path, "rb") as f:
+                    atomic_write_bytes(os.path.join(out, f"images_{name}.png"), f.read())
+                shown[name] = path
+        md += "\n" + images_markdown(spec, agg_im, shown)
     try:
         atomic_write_bytes(os.path.join(out, "rotation.png"),
                            _plot(agg, spec, "rotation_deg", "rotation error (deg)", ("exact", "central"),
@@ -213,5 +317,5 @@ def write_benchmark_report(spec: dict, results: list, out: str, *, command: str,
     atomic_write_bytes(os.path.join(out, "report.md"), md.encode())
     atomic_write_json(os.path.join(out, "report.json"),
                       jsonable({"spec": spec, "command": command, "timing": timing, "aggregate": agg,
-                                "pairs": results}))
+                                "pairs": results, "images_aggregate": agg_im, "images_pairs": image_results}))
     return agg

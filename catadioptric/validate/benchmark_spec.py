@@ -61,6 +61,8 @@ def read_benchmark_spec(data, path: str = "benchmark") -> dict:
         c.number("roll_deg", 0.0, min=-360.0, max=360.0)
     if len(set(names)) != len(names):
         raise t.error("configs", f"expected distinct names, got {names}")
+    im = t.table("images")
+    im.numbers("max_rotation_deg", [60.0], positive=True)
     q = t.table("quick")
     q.strings("configs", names[:1], choices=names)
     q.integer("pairs", 1, min=1)

@@ -97,7 +97,7 @@ def _benchmark(args) -> int:
     out = check_out_dir(args.out)
     data = check_out_dir(args.data, "--data") if args.data else out
     agg = run_benchmark(spec, out, data=data, workers=args.workers, progress=not args.no_progress,
-                        command=_command(args))
+                        command=_command(args), images=args.images)
     for name, a in agg.items():
         for noise, e in a["noise"].items():
             ex, ce = e["exact"], e["central"]
@@ -156,6 +156,8 @@ def register(sub) -> None:
     b.add_argument("--data", metavar="DIR", help="working folder for the rendered datasets and per-pair results "
                                                  "(default: --out)")
     b.add_argument("--workers", type=positive_int, default=1, help="processes (default 1)")
+    b.add_argument("--images", action="store_true",
+                   help="also the image-only path on every pair (catadioptric relative-pose; no labels)")
     b.add_argument("--no-progress", action="store_true", help="no progress bars")
     b.set_defaults(func=_benchmark, command_line=None)
     n = vs.add_parser("noise-sweep", help="synthetic noise sweeps of VPs, directions and rotation (paper Figs. 5-6)")
