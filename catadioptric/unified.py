@@ -743,7 +743,6 @@ def fit_unified(cam: CatadioptricCamera, *, step: int = 8, depths=DEFAULT_DEPTHS
     Rt0 = init.R_tilt if tilt else np.eye(3)
     K0 = init.K if (tilt or init.is_pure) else _linear_K(xi0, R0, c0, Rt0, X, w, uv)
     scale = cam.mirror.scale
-    e3 = np.array([0.0, 0.0, 1.0])
 
     def unpack(x):
         xi = x[0]

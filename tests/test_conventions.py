@@ -1,6 +1,5 @@
 """Each convention of docs/conventions.md, pinned by a test."""
 import numpy as np
-import pytest
 
 import catadioptric as cd
 from catadioptric.rigs import preset

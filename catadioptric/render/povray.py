@@ -128,7 +128,7 @@ def camera_vectors(cam, pose) -> dict:
 def scene_text(scene, cam, pose, quality: dict, labels: bool) -> str:
     """The whole ``.pov`` text of the beauty pass (``labels=False``) or the label pass."""
     m = cam.mirror
-    R, t = pose.R, pose.t
+    R = pose.R
     org = pose.origin_in_world
     cv = camera_vectors(cam, pose)
     out = ["#version 3.7;\n"]

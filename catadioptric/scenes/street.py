@@ -172,7 +172,7 @@ class _Street:
             for yaw_try in (yaw, 0.0):  # a turned footprint too deep for the block is placed unturned
                 c, s = math.cos(math.radians(yaw_try)), math.sin(math.radians(yaw_try))
                 pr = poly @ np.array([[c, s], [-s, c]])
-                lo, hi = pr.min(axis=0), pr.max(axis=0)
+                lo = pr.min(axis=0)
                 pr = pr + np.array([cursor - lo[0], setback - lo[1]])
                 if pr[:, 1].max() <= max_q:
                     placed = pr
