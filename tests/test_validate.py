@@ -94,8 +94,18 @@ def test_benchmark_at_its_ci_size(tmp_path):
         assert os.path.getsize(os.path.join(out, png)) > 5_000
     results = sorted(os.listdir(os.path.join(out, "results")))
     stamp = {r: os.path.getmtime(os.path.join(out, "results", r, "p00.json")) for r in results}
-    assert main(["validate", "benchmark", "--spec", spec, "--quick", "--out", out, "--no-progress"]) == 0
+    # the rerun adds the image-only path (labels only score it); the label results are read back
+    assert main(["validate", "benchmark", "--spec", spec, "--quick", "--out", out, "--no-progress", "--images"]) == 0
     assert stamp == {r: os.path.getmtime(os.path.join(out, "results", r, "p00.json")) for r in results}
+    rep = json.load(open(os.path.join(out, "report.json")))
+    assert len(rep["images_pairs"]) == len(results)
+    for p in rep["images_pairs"]:
+        assert [r["max_rotation_deg"] for r in p["runs"]] == [None, *rep["spec"]["images"]["max_rotation_deg"]]
+        assert len(p["detection"]) == 2 and all(0 <= d["recovered_fraction"] <= 1 for d in p["detection"])
+    for e in rep["images_aggregate"].values():
+        assert all(q["over_10deg_unflagged"] == 0 for q in e["priors"].values())
+    md = open(os.path.join(out, "report.md")).read()
+    assert "## From the images alone (no labels)" in md and "labels, 1 px" in md
 
 
 def test_noise_sweep_grows_with_noise(tmp_path):
