@@ -294,6 +294,9 @@ def write_benchmark_report(spec: dict, results: list, out: str, *, command: str,
     ``images_<config>.png`` from ``overlays``: ``{config: PNG path}``); returns the aggregate."""
     agg = aggregate(spec, results)
     os.makedirs(out, exist_ok=True)
+    if spec.get("source"):  # a committed report names the spec relative to where it was run, not the machine
+        rel = os.path.relpath(spec["source"])
+        spec = spec | {"source": rel if not rel.startswith("..") else os.path.basename(rel)}
     md = benchmark_markdown(spec, agg, results, command, timing)
     agg_im = None
     if image_results is not None:
