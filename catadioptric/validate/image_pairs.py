@@ -20,13 +20,9 @@ import time
 import numpy as np
 
 from .._checks import CatadioptricError
+from .relative_pose import _angle_deg
 
 __all__ = ["evaluate_image_pair"]
-
-
-def _angle_deg(a, b) -> float:
-    c = float(np.dot(a, b) / (np.linalg.norm(a) * np.linalg.norm(b)))
-    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
 
 
 def _families_check(family_map, dets, scores, R, R_gt, label_families):
