@@ -65,13 +65,17 @@ def _rad_per_px(cam) -> float:
 class MeetingRays:
     """Where pairs of lines of different families meet, seen from each view's centre: unit rays
     ``xa (K, 3)`` (frame A) and ``xb (K, 3)`` (frame B), oriented towards the meeting point;
-    ``n_lines``: lines matched in both views; ``rad_per_px``: the coarser view's angle per pixel.
-    Most pairs of lines do not meet in 3-D: their rays are outliers."""
+    ``n_lines``: lines matched in both views; ``rad_per_px``: the coarser view's angle per pixel;
+    ``cov_a``, ``cov_b (K, 3, 3)``: each ray's covariance, propagated from its two planes' fits
+    (None when the fits carry none). Most pairs of lines do not meet in 3-D: their rays are
+    outliers."""
 
     xa: np.ndarray
     xb: np.ndarray
     n_lines: int
     rad_per_px: float
+    cov_a: np.ndarray | None = None
+    cov_b: np.ndarray | None = None
 
 
 def _sides(view, est):
@@ -100,6 +104,23 @@ def _meeting(n_i, u_i, n_j, u_j):
     return np.where(ok[..., None], x, np.nan)
 
 
+def _skew(v):
+    """``[v]_x (..., 3, 3)``: ``[v]_x w = v x w``."""
+    z = np.zeros(v.shape[:-1])
+    return np.stack([np.stack([z, -v[..., 2], v[..., 1]], -1), np.stack([v[..., 2], z, -v[..., 0]], -1),
+                     np.stack([-v[..., 1], v[..., 0], z], -1)], -2)
+
+
+def _meeting_cov(x, n_i, C_i, n_j, C_j):
+    """Covariance ``(K, 3, 3)`` of the unit ray ``x = +-unit(n_i x n_j)`` from those of the two normals:
+    ``dx = P (dn_i x n_j + n_i x dn_j) / |n_i x n_j|``, ``P`` the projection normal to ``x``."""
+    s = np.linalg.norm(np.cross(n_i, n_j), axis=-1)[:, None, None]
+    P = np.eye(3) - x[:, :, None] * x[:, None, :]
+    Ji = -P @ _skew(n_j) / s
+    Jj = P @ _skew(n_i) / s
+    return Ji @ C_i @ Ji.transpose(0, 2, 1) + Jj @ C_j @ Jj.transpose(0, 2, 1)
+
+
 def meeting_rays(view_a, view_b, ea, eb, keys) -> MeetingRays | None:
     """The meeting rays of every pair of lines of different families matched in both views (by
     ``line_id``), or None when there are fewer than two."""
@@ -108,10 +129,11 @@ def meeting_rays(view_a, view_b, ea, eb, keys) -> MeetingRays | None:
         for key in keys:
             e = est[key]
             u = _sides(view, e)
+            C = e.normal_covs if e.normal_covs is not None else np.full((len(e.lines), 3, 3), np.nan)
             for k, i in enumerate(e.lines):
                 lid = view.line_id[i]
                 if lid is not None:
-                    rows[side].append((lid, key, e.normals[k], u[k]))
+                    rows[side].append((lid, key, e.normals[k], u[k], C[k]))
     b_of = {r[0]: r for r in rows["B"]}
     matched = [(ra, b_of[ra[0]]) for ra in rows["A"] if ra[0] in b_of and b_of[ra[0]][1] == ra[1]]
     if len(matched) < 2:
@@ -121,6 +143,8 @@ def meeting_rays(view_a, view_b, ea, eb, keys) -> MeetingRays | None:
     uA = np.array([m[0][3] for m in matched])
     nB = np.array([m[1][2] for m in matched])
     uB = np.array([m[1][3] for m in matched])
+    CA = np.array([m[0][4] for m in matched])
+    CB = np.array([m[1][4] for m in matched])
     i, j = np.triu_indices(len(matched), 1)
     keep = fam[i] != fam[j]
     i, j = i[keep], j[keep]
@@ -129,7 +153,12 @@ def meeting_rays(view_a, view_b, ea, eb, keys) -> MeetingRays | None:
     ok = np.all(np.isfinite(xa), 1) & np.all(np.isfinite(xb), 1)
     if ok.sum() < 2:
         return None
-    return MeetingRays(xa[ok], xb[ok], len(matched), max(_rad_per_px(view_a.cam), _rad_per_px(view_b.cam)))
+    i, j, xa, xb = i[ok], j[ok], xa[ok], xb[ok]
+    cov_a = _meeting_cov(xa, nA[i], CA[i], nA[j], CA[j])
+    cov_b = _meeting_cov(xb, nB[i], CB[i], nB[j], CB[j])
+    has_cov = bool(np.all(np.isfinite(cov_a)) and np.all(np.isfinite(cov_b)))
+    return MeetingRays(xa, xb, len(matched), max(_rad_per_px(view_a.cam), _rad_per_px(view_b.cam)),
+                       cov_a if has_cov else None, cov_b if has_cov else None)
 
 
 def _depths(p, q, T):
@@ -143,25 +172,63 @@ def _depths(p, q, T):
     return lam, mu, pq
 
 
-def _costs(A, p, q, T, thr, min_parallax, c2):
+def _cheirality_violation(p, q, T):
+    """How far ``(H, K)`` (radians) each pair of rays ``p, q (K, 3)`` is from meeting in front of both
+    centres, for unit displacements ``T (H, 3)`` (``c_A - c_B``): 0 when it does. In the epipolar
+    plane, with ``theta`` the angle of a ray from ``T``, the rays meet in front of both exactly when
+    they lie on one side of the baseline and ``theta_p >= theta_q`` (the angle they make at the
+    point, their parallax); otherwise the violation is the smallest turn of the rays that makes it
+    so: ``theta_q - theta_p`` on one side, and, on opposite sides (the "twisted pair" of a
+    half-turn about the baseline), the turn that brings both onto the baseline,
+    ``min(theta_p + theta_q, 2 pi - theta_p - theta_q)``. Unlike a test of the depths' signs, the
+    violation is an angle: it is compared with the rays' noise, so that rays nearly parallel (far
+    points) vote only as far as their parallax is measurable, never as a blanket exemption."""
+    cp, cq = T @ p.T, T @ q.T
+    th_p, th_q = np.arccos(np.clip(cp, -1.0, 1.0)), np.arccos(np.clip(cq, -1.0, 1.0))
+    # same side of the baseline: (T x p) . (T x q) = p.q - (T.p)(T.q) > 0
+    same = np.sum(p * q, axis=-1)[None, :] - cp * cq >= 0
+    return np.where(same, np.maximum(th_q - th_p, 0.0), np.minimum(th_p + th_q, 2 * np.pi - th_p - th_q))
+
+
+def _costs(A, p, q, T, thr, c2, W=None, ang=None):
     """Truncated cost ``(H,)`` and inlier masks ``(H, K)`` of translations ``T (H, 3)``: a meeting ray is
-    an inlier when it is within ``thr`` of its epipolar plane and both depths are positive (or the
-    two rays are too nearly parallel for the depths to say anything)."""
-    r2 = (T @ A.T) ** 2 / (thr / 3.0) ** 2
-    lam, mu, pq = _depths(p, q, T)
-    far = pq > np.cos(min_parallax)
-    ahead = ((lam > 0) & (mu > 0)) | far[None, :]
-    inl = (r2 <= c2) & ahead
+    an inlier when it is within ``thr`` of its epipolar plane and within ``thr`` of meeting in
+    front of both centres (:func:`_cheirality_violation`). With ``W (K, 3, 3)`` and ``ang (K,)``
+    (:func:`_residual_weights`), each ray has its own: the residual's variance ``T' W_k T`` and
+    three times ``ang_k`` for the cheirality."""
+    if W is None:
+        r2 = (T @ A.T) ** 2 / (thr / 3.0) ** 2
+        tol = thr
+    else:
+        r2 = (T @ A.T) ** 2 / np.einsum("hi,kij,hj->hk", T, W, T)
+        tol = 3.0 * ang
+    inl = (r2 <= c2) & (_cheirality_violation(p, q, T) <= tol)
     return np.sum(np.where(inl, r2, c2), axis=1), inl
+
+
+def _residual_weights(p, q, cov_p, cov_q, floor):
+    """Per meeting ray, ``W (K, 3, 3)`` such that the variance of its epipolar residual
+    ``r = T . unit(p x q)`` is ``T' W T`` (first order in the rays' covariances ``cov_p``,
+    ``cov_q``; ``floor``: an angle added in quadrature, for what the fits' covariances leave
+    out), and ``ang (K,)``: the rays' own angular standard deviation."""
+    s2 = np.sum(np.cross(p, q) ** 2, axis=1)[:, None, None]
+    Sq, Sp = _skew(q), _skew(p)
+    W = (Sq.transpose(0, 2, 1) @ cov_p @ Sq + Sp.transpose(0, 2, 1) @ cov_q @ Sp) / s2
+    W = W + floor**2 * np.eye(3)
+    ang = np.sqrt(np.trace(cov_p, axis1=1, axis2=2) + np.trace(cov_q, axis1=1, axis2=2) + floor**2)
+    return W, ang
 
 
 def translation_direction_from_crossings(rays: MeetingRays | None, R, *, sigma_px: float = 1.0, seed: int = 0,
                                          trials: int = 300, c2: float = 9.0) -> CrossingFit | None:
     """The displacement direction between the centres of two views, given ``R``, from the rays
-    where lines meet (:func:`meeting_rays`). The inlier threshold is three times
-    ``max(0.5, sigma_px / 2)`` pixels (a meeting point is the crossing of two fitted curves,
-    better placed than a pixel) in angle; a hypothesis' inliers must also lie in front of
-    both centres. Returns a :class:`CrossingFit`, or None when no two rays are usable."""
+    where lines meet (:func:`meeting_rays`). Each ray's residual is weighed by its own variance,
+    propagated from the fits of its two lines' planes in both views (a crossing of two long,
+    well-fitted lines at a wide angle is placed to a fraction of a pixel; two nearly parallel
+    planes place it poorly), with a floor of a tenth of ``max(0.5, sigma_px / 2)`` pixels; rays
+    with no covariance share a threshold of three times ``max(0.5, sigma_px / 2)`` pixels. A
+    hypothesis' inliers must also meet in front of both centres, within their noise. Returns a
+    :class:`CrossingFit`, or None when no two rays are usable."""
     if rays is None:
         return None
     p = rays.xa @ R.T
@@ -173,7 +240,9 @@ def translation_direction_from_crossings(rays: MeetingRays | None, R, *, sigma_p
     if use.sum() < 2:
         return None
     thr = 3.0 * max(0.5, 0.5 * sigma_px) * np.sqrt(2.0) * rays.rad_per_px
-    min_parallax = 3.0 * thr
+    W = ang = None
+    if rays.cov_a is not None:
+        W, ang = _residual_weights(p, q, R @ rays.cov_a @ R.T, rays.cov_b, 0.1 * thr / 3.0)
     rng = np.random.default_rng(seed)
     idx = np.flatnonzero(use)
     P = np.array([rng.choice(idx, 2, replace=False) for _ in range(trials)]) if len(idx) > 2 else idx[None]
@@ -183,24 +252,33 @@ def translation_direction_from_crossings(rays: MeetingRays | None, R, *, sigma_p
     if len(T) == 0:
         return None
     T = np.concatenate([T, -T])  # the sign is a hypothesis too (the depths decide)
-    cost, _ = _costs(A, p, q, T, thr, min_parallax, c2)
+    cost, _ = _costs(A, p, q, T, thr, c2, W, ang)
     t = T[int(np.argmin(cost))]
-    thr_fit = thr
-    for _ in range(8):  # least squares on the inliers, keeping the side; the threshold then follows the
-        _, inl = _costs(A, p, q, t[None], thr_fit, min_parallax, c2)  # inliers' own spread (pairs of
-        if inl[0].sum() < 2:  # lines that do not meet but pass close must not bias the direction)
+    # least squares on the inliers, keeping the side; the inlier test then follows the inliers' own
+    # spread, never looser than at the start (pairs of lines that do not meet but pass close, or
+    # poorly placed crossings of nearly parallel planes, must not bias the direction)
+    shrink = 1.0
+    for _ in range(8):
+        if W is None:
+            _, inl = _costs(A, p, q, t[None], thr * shrink, c2)
+            wk = np.ones(len(A))
+        else:
+            _, inl = _costs(A, p, q, t[None], thr, c2, W * shrink**2, ang)
+            wk = 1.0 / np.einsum("i,kij,j->k", t, W, t)
+        if inl[0].sum() < 2:
             break
-        t_new = np.linalg.eigh(A[inl[0]].T @ A[inl[0]])[1][:, 0]
+        Ai = A[inl[0]] * np.sqrt(wk[inl[0]])[:, None]
+        t_new = np.linalg.eigh(Ai.T @ Ai)[1][:, 0]
         t = t_new if t_new @ t >= 0 else -t_new
-        r = np.abs(A[inl[0]] @ t)
-        thr_fit = min(thr, max(3.0 * 1.4826 * float(np.median(r)), 1e-12))
-    cost, inl = _costs(A, p, q, t[None], thr, min_parallax, c2)
+        z = np.abs(A[inl[0]] @ t) * np.sqrt(wk[inl[0]]) * (1.0 if W is not None else 3.0 / thr)
+        shrink = min(1.0, max(1.4826 * float(np.median(z)), 1e-12))
+    cost, inl = _costs(A, p, q, t[None], thr, c2, W, ang)
     inl = inl[0]
-    sig_r = thr / 3.0
+    wk = (3.0 / thr) ** 2 * np.ones(len(A)) if W is None else 1.0 / np.einsum("i,kij,j->k", t, W, t)
     e1 = np.cross(t, [1.0, 0.0, 0.0] if abs(t[0]) < 0.8 else [0.0, 1.0, 0.0])
     e1 /= np.linalg.norm(e1)
     E = np.stack([e1, np.cross(t, e1)], 1)
-    J = A[inl] @ E
-    cov = E @ np.linalg.pinv(J.T @ J) @ E.T * sig_r**2 if inl.sum() >= 2 else np.full((3, 3), np.nan)
+    J = (A[inl] @ E) * np.sqrt(wk[inl])[:, None]
+    cov = E @ np.linalg.pinv(J.T @ J) @ E.T if inl.sum() >= 2 else np.full((3, 3), np.nan)
     return CrossingFit(t=t, cov=cov, cost=float(cost[0]), n_crossings=len(A), n_inliers=int(inl.sum()),
                        n_lines=rays.n_lines, threshold_rad=float(thr))

@@ -81,7 +81,8 @@ class FamilyEstimate:
     the line's distance); ``inv_distance``, ``inv_distance_std (L,)``: each line's inverse distance
     from ``centre`` and its standard error (non-central; NaN for central: one view does not place
     a line); ``inliers``: a boolean mask per kept line over its pixels; ``sigma`` (pixels) and
-    ``rms`` of the fit; ``dropped``: ``{line index: reason}``."""
+    ``rms`` of the fit; ``dropped``: ``{line index: reason}``; ``normal_covs (L, 3, 3)``: the
+    covariance of each plane's normal (plane fits; None for the exact non-central fit)."""
 
     key: object
     direction: np.ndarray
@@ -96,6 +97,7 @@ class FamilyEstimate:
     sigma: float
     rms: float
     dropped: dict
+    normal_covs: np.ndarray | None = None
 
 
 _NAMED = re.compile(r"uv_sets\[(\d+)\]")
@@ -182,6 +184,7 @@ def fit_view_families(view: ViewLines, *, keys=None, seed=0, f_scale: float = 1.
                 planes, s, cov, keep, dropped = _fit_central(view.cam, sets, seed, f_scale, pixel_sigma,
                                                              directions_only=not central)
                 normals = np.array([p.normal for p in planes])
+                ncov = np.array([p.normal_cov for p in planes])
                 rho = rho_sd = np.full(len(keep), np.nan)
                 pl = np.full((len(keep), 6), np.nan)
                 inl = [_full(p.inliers, picks[k], len(view.uv[idx[k]])) for p, k in zip(planes, keep)]
@@ -199,6 +202,7 @@ def fit_view_families(view: ViewLines, *, keys=None, seed=0, f_scale: float = 1.
                 rho_sd = np.sqrt(np.maximum(np.diag(fit.cov)[3::2], 0.0))
                 inl = [_full(m, picks[k], len(view.uv[idx[k]])) for m, k in zip(fit.inliers, keep)]
                 rms, sig = fit.rms, fit.sigma
+                ncov = None
         except CatadioptricError as exc:
             fail[key] = str(exc)
             continue
@@ -210,5 +214,5 @@ def fit_view_families(view: ViewLines, *, keys=None, seed=0, f_scale: float = 1.
         est[key] = FamilyEstimate(key=key, direction=s, cov=cov, lines=[idx[k] for k in keep], pluecker=pl,
                                   normals=normals, centre=centre, inv_distance=rho, inv_distance_std=rho_sd,
                                   inliers=list(inl), sigma=sig, rms=rms,
-                                  dropped={idx[k]: v for k, v in dropped.items()})
+                                  dropped={idx[k]: v for k, v in dropped.items()}, normal_covs=ncov)
     return est, fail
