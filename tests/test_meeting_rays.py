@@ -1,0 +1,50 @@
+"""The translation direction of two central views from where lines meet (pose/central.py): the
+cheirality test in angle, the meeting rays' covariance, and the twisted pair told apart."""
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from catadioptric.pose.central import _cheirality_violation, _depths, _meeting_cov
+
+
+def _unit(v):
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_violation_is_zero_exactly_when_the_rays_meet_in_front_of_both(seed):
+    rng = np.random.default_rng(seed)
+    T = _unit(rng.normal(size=3))  # c_A - c_B
+    X = rng.normal(size=3) * rng.uniform(0.2, 20.0)
+    p, q = _unit(X - T), _unit(X)
+    for sp, sq in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
+        v = _cheirality_violation(sp * p[None], sq * q[None], T[None])[0, 0]
+        lam, mu, _ = _depths(sp * p[None], sq * q[None], T[None])
+        assert (v < 1e-9) == bool(lam[0, 0] > 0 and mu[0, 0] > 0), (sp, sq, v)
+
+
+def test_the_twisted_pair_violates_by_the_rays_angles_from_the_baseline():
+    """A half-turn about the baseline keeps every epipolar plane (the residuals cannot tell it) but
+    puts the two rays on opposite sides of the baseline: the violation is the turn that brings
+    both onto it, ``theta_p + theta_q`` (or its complement), which is what the noise is compared with."""
+    T = np.array([1.0, 0.0, 0.0])
+    X = np.array([30.0, 2.0, 0.5])  # a far point, 4 degrees off the baseline
+    p, q = _unit(X - T), _unit(X)
+    half_turn = np.diag([1.0, -1.0, -1.0])
+    v = _cheirality_violation((half_turn @ p)[None], q[None], T[None])[0, 0]
+    th_p, th_q = np.arccos(p @ T), np.arccos(q @ T)
+    assert np.isclose(v, th_p + th_q) and v > np.radians(7.0)
+    assert _cheirality_violation(p[None], q[None], T[None])[0, 0] == 0.0
+
+
+def test_meeting_ray_covariance_matches_monte_carlo():
+    rng = np.random.default_rng(4)
+    n_i, n_j = _unit(np.array([0.1, 0.9, 0.3])), _unit(np.array([0.8, -0.2, 0.5]))
+    C_i = np.diag([2.0, 1.0, 0.5]) * 1e-6
+    C_j = np.diag([0.5, 3.0, 1.0]) * 1e-6
+    x = _unit(np.cross(n_i, n_j))
+    cov = _meeting_cov(x[None], n_i[None], C_i[None], n_j[None], C_j[None])[0]
+    draws = _unit(np.cross(rng.multivariate_normal(n_i, C_i, 20000), rng.multivariate_normal(n_j, C_j, 20000)))
+    mc = np.cov((draws - x).T)
+    assert np.allclose(cov, mc, atol=0.05 * np.abs(cov).max())
