@@ -190,20 +190,32 @@ def _cheirality_violation(p, q, T):
     return np.where(same, np.maximum(th_q - th_p, 0.0), np.minimum(th_p + th_q, 2 * np.pi - th_p - th_q))
 
 
-def _costs(A, p, q, T, thr, c2, W=None, ang=None):
+def _costs(A, p, q, T, thr, c2, W=None, ang=None, min_parallax=None):
     """Truncated cost ``(H,)`` and inlier masks ``(H, K)`` of translations ``T (H, 3)``: a meeting ray is
     an inlier when it is within ``thr`` of its epipolar plane and within ``thr`` of meeting in
     front of both centres (:func:`_cheirality_violation`). With ``W (K, 3, 3)`` and ``ang (K,)``
     (:func:`_residual_weights`), each ray has its own: the residual's variance ``T' W_k T`` and
-    three times ``ang_k`` for the cheirality."""
-    if W is None:
-        r2 = (T @ A.T) ** 2 / (thr / 3.0) ** 2
-        tol = thr
+    three times ``ang_k`` for the cheirality. ``min_parallax`` (radians): instead, the depths'
+    signs decide, and rays more nearly parallel than this are exempt (the rule of the matching
+    of detected lines, pose/matching.py, whose meeting points carry offsets their fits do not
+    know of)."""
+    r2 = _residuals2(A, T, thr, W)
+    if min_parallax is None:
+        ahead = _cheirality_violation(p, q, T) <= (thr if W is None else 3.0 * ang)
     else:
-        r2 = (T @ A.T) ** 2 / np.einsum("hi,kij,hj->hk", T, W, T)
-        tol = 3.0 * ang
-    inl = (r2 <= c2) & (_cheirality_violation(p, q, T) <= tol)
+        lam, mu, pq = _depths(p, q, T)
+        ahead = ((lam > 0) & (mu > 0)) | (pq > np.cos(min_parallax))[None, :]
+    inl = (r2 <= c2) & ahead
     return np.sum(np.where(inl, r2, c2), axis=1), inl
+
+
+def _residuals2(A, T, thr, W=None):
+    """Squared epipolar residuals ``(H, K)`` of meeting rays (normals ``A (K, 3)`` of their epipolar
+    planes) for translations ``T (H, 3)``, in units of their standard deviation: ``thr / 3`` for
+    all, or ``sqrt(T' W_k T)`` per ray (:func:`_residual_weights`)."""
+    if W is None:
+        return (T @ A.T) ** 2 / (thr / 3.0) ** 2
+    return (T @ A.T) ** 2 / np.einsum("hi,kij,hj->hk", T, W, T)
 
 
 def _residual_weights(p, q, cov_p, cov_q, floor):

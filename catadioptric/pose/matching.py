@@ -192,7 +192,7 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
     T = np.concatenate([T, -T])
 
     def per_crossing_cost(Ts):
-        cost, inl = _costs(A, p_, q_, Ts, thr, c2)  # per candidate pair
+        cost, inl = _costs(A, p_, q_, Ts, thr, c2, min_parallax=3.0 * thr)  # per candidate pair
         r2 = (Ts @ A.T) ** 2 / (thr / 3.0) ** 2
         r2 = np.where(inl, r2, c2)
         best = np.full((len(Ts), len(xa)), c2)
@@ -245,7 +245,7 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
         P, Q = ra[vi], xb[vj]
         Av = np.cross(P, Q)
         Av /= np.maximum(np.linalg.norm(Av, axis=1), 1e-300)[:, None]
-        _, inl = _costs(Av, P, Q, t[None], thr, c2)
+        _, inl = _costs(Av, P, Q, t[None], thr, c2, min_parallax=3.0 * thr)
         r2 = (Av @ t) ** 2 / (thr / 3.0) ** 2
         ok = inl[0]
         n_ok = int(ok.sum())
