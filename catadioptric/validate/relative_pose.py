@@ -144,7 +144,7 @@ def _evaluate_pair(dataset, names, noise_levels, draws, seed, pixels, min_pixels
                 t0 = time.perf_counter()
                 try:
                     res = relative_pose(views[0], views[1], ends=hints if ends == "given" else None, seed=k,
-                                        decisive=decisive)
+                                        decisive=decisive, max_pixels=max_pixels)
                 except CatadioptricError as exc:
                     msg = str(exc)
                     short = [b.short for b in base]
