@@ -88,10 +88,12 @@ def vanishing_points(cam: CatadioptricCamera, directions, *, which: str = "+s") 
     o, sl, sel, r, uv = fs.scatter(N, K, np.ones(len(fs.owner), dtype=bool), key)
     sign = np.zeros((N, K), dtype=np.int8)
     vis = np.zeros((N, K), dtype=bool)
-    sign[o, sl] = sign_flat[sel]
-    vis[o, sl] = fs.visible[sel]
+    inimg = np.zeros((N, K), dtype=bool)
+    at = o * K + sl  # flat slot
+    sign.reshape(-1)[at] = sign_flat[sel]
+    vis.reshape(-1)[at] = fs.visible[sel]
+    inimg.reshape(-1)[at] = fs.visible[sel] & cam.pinhole.in_image(fs.uv[sel])
     valid = vis & (sign > 0)
-    inimg = vis & cam.pinhole.in_image(uv)
     rs = lambda a, tail=(): a.reshape(shape + (K,) + tail)
     return VanishingPoints(rs(uv, (2,)), rs(r, (3,)), rs(valid), rs(sign), rs(vis), rs(inimg))
 

@@ -358,9 +358,10 @@ def polish_accept(h, owner, r0, A, B, C, c, zlo, zhi, backward, iters, accept, o
 # -- polynomial coefficients of targets by a fitted homogeneous map
 
 @njit(**_JIT)
-def monomial_map(h, exps, qmap, Q, qmax):
-    """``Q[i] = monomials(h[i]) @ qmap`` (``catadioptric.solvers.reflection.map_coefficients``) and
-    ``qmax[i] = max |Q[i]|``; monomials ``prod_k h[i, k]^exps[j, k]`` from powers built by products."""
+def monomial_map(h, exps, qmap, degree, qsum, cancelled, Q, weak):
+    """``Q[i] = monomials(h[i]) @ qmap`` (``catadioptric.solvers.reflection.map_coefficients``), monomials
+    ``prod_k h[i, k]^exps[j, k]`` from powers built by products, and ``weak[i]``: ``max |Q[i]|`` below
+    ``cancelled`` times the bound ``max_k |h[i, k]|^degree qsum`` of its terms."""
     N, nv = h.shape
     J, n_out = qmap.shape
     d = 0
@@ -368,24 +369,31 @@ def monomial_map(h, exps, qmap, Q, qmax):
         for k in range(nv):
             d = max(d, exps[j, k])
     pw = np.empty((nv, d + 1))
+    mo = np.empty(J)
+    qmap_t = np.ascontiguousarray(qmap.T)
     for i in range(N):
         for k in range(nv):
             pw[k, 0] = 1.0
             for e in range(1, d + 1):
                 pw[k, e] = pw[k, e - 1] * h[i, k]
-        for o in range(n_out):
-            Q[i, o] = 0.0
         for j in range(J):
             mono = 1.0
             for k in range(nv):
                 if exps[j, k]:
                     mono *= pw[k, exps[j, k]]
-            for o in range(n_out):
-                Q[i, o] += mono * qmap[j, o]
+            mo[j] = mono
+        for o in range(n_out):
+            acc = 0.0
+            for j in range(J):
+                acc += mo[j] * qmap_t[o, j]
+            Q[i, o] = acc
         big = 0.0
         for o in range(n_out):
             big = max(big, abs(Q[i, o]))
-        qmax[i] = big
+        hm = 0.0
+        for k in range(nv):
+            hm = max(hm, abs(h[i, k]))
+        weak[i] = big < cancelled * (hm ** degree * qsum)
 
 
 # -- the general solver's back-substitution
@@ -514,3 +522,85 @@ def sorted_unique(owner, r, fwd, n_owners, tol, out_idx):
                 out_idx[m] = x
                 m += 1
     return m
+
+
+# -- visibility of reflection points
+
+@njit(**_JIT)
+def visibility_rows(r, target, w, A, B, C, zlo, zhi, L, center, rz, out):
+    """``catadioptric.projection.visibility`` one point at a time (its docstring has the tests);
+    ``rz`` is the camera's optical axis in the mirror frame (third row of R_cam_from_mirror)."""
+    eps = 1e-9
+    c0, c1, c2 = center[0] / L, center[1] / L, center[2] / L
+    cc = c0 ** 2 + c1 ** 2 + A * c2 ** 2 + B * c2 - C
+    for i in range(len(r)):
+        rn0, rn1, rn2 = r[i, 0] / L, r[i, 1] / L, r[i, 2] / L
+        d0, d1, d2 = rn0 - c0, rn1 - c1, rn2 - c2
+        a = d0 ** 2 + d1 ** 2 + A * d2 ** 2
+        t_other = cc / a
+        zo = c2 + t_other * d2
+        blocked_in = t_other > eps and t_other < 1 - eps and zo >= zlo and zo <= zhi
+        wi = w[i]
+        q0, q1, q2 = target[i, 0] - wi * r[i, 0], target[i, 1] - wi * r[i, 1], target[i, 2] - wi * r[i, 2]
+        m = max(abs(q0), abs(q1), abs(q2))
+        u0, u1, u2 = q0 / m, q1 / m, q2 / m
+        nu = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+        v0, v1, v2 = u0 / nu, u1 / nu, u2 / nu
+        a2 = v0 ** 2 + v1 ** 2 + A * v2 ** 2
+        b2 = 2 * (rn0 * v0 + rn1 * v1 + A * rn2 * v2) + B * v2
+        t2 = -b2 / a2
+        if wi > 0.5:
+            length = m * nu if m > 0 else 0.0
+            t_end = length / L * (1 - eps)
+        else:
+            t_end = np.inf
+        zo2 = rn2 + t2 * v2
+        blocked_out = t2 > eps and t2 < t_end and zo2 >= zlo and zo2 <= zhi
+        front = ((r[i, 0] - center[0]) * rz[0] + (r[i, 1] - center[1]) * rz[1]) + (r[i, 2] - center[2]) * rz[2] > 0
+        out[i] = not blocked_in and not blocked_out and front
+
+
+# -- targets near a normal line (camera - foot)
+
+@njit(**_JIT)
+def near_normal(h, foot, back, tol, out_idx):
+    """Indices of the targets ``h (N, 4)`` whose direction from ``foot`` is within sine ``tol`` of the
+    unit vector ``back`` (``ReflectionSolver._feet_candidates``); returns their number."""
+    m = 0
+    for i in range(len(h)):
+        t0, t1, t2 = h[i, 0] - h[i, 3] * foot[0], h[i, 1] - h[i, 3] * foot[1], h[i, 2] - h[i, 3] * foot[2]
+        tn = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+        x0, x1, x2 = t1 * back[2] - t2 * back[1], t2 * back[0] - t0 * back[2], t0 * back[1] - t1 * back[0]
+        if math.sqrt(x0 * x0 + x1 * x1 + x2 * x2) <= tol * tn and tn > 0:
+            out_idx[m] = i
+            m += 1
+    return m
+
+
+# -- slots of flat entries within their owner
+
+@njit(**_JIT)
+def rank_rows(owner, key, n_owners, order, slot):
+    """``order``: the entries sorted by (owner, key), stable; ``slot``: each sorted entry's rank within
+    its owner (``catadioptric.solvers.reflection.rank_within``)."""
+    n = len(owner)
+    start = np.zeros(n_owners + 1, dtype=np.intp)
+    for i in range(n):
+        start[owner[i] + 1] += 1
+    for o in range(n_owners):
+        start[o + 1] += start[o]
+    pos = start[:-1].copy()
+    for i in range(n):
+        order[pos[owner[i]]] = i
+        pos[owner[i]] += 1
+    for o in range(n_owners):
+        a, b = start[o], start[o + 1]
+        for j in range(a + 1, b):  # insertion sort by key, stable (NaN keys last, as a lexsort)
+            x = order[j]
+            k = j - 1
+            while k >= a and (key[order[k]] > key[x] or (key[order[k]] != key[order[k]] and key[x] == key[x])):
+                order[k + 1] = order[k]
+                k -= 1
+            order[k + 1] = x
+        for j in range(a, b):
+            slot[j] = j - a

@@ -129,13 +129,17 @@ class ReflectionSolver:
         feet = self._feet
         if not len(feet):
             return np.zeros(0, dtype=np.intp), np.zeros((0, 3))
+        from ._kernels import near_normal
+
         owners, pts = [], []
+        h = np.ascontiguousarray(h, dtype=float)
+        idx = np.empty(len(h), dtype=np.intp)
         for f in feet:
             back = self._c_frame - f
             back = back / np.linalg.norm(back)
-            tg = h[:, :3] - h[:, 3:] * f  # toward the target, any length
-            tn = np.linalg.norm(tg, axis=1)
-            near = np.nonzero((np.linalg.norm(np.cross(tg, back), axis=1) <= _NEAR_NORMAL * tn) & (tn > 0))[0]
+            # the direction toward the target from the foot, h3 - w f (any length), within the sine
+            # _NEAR_NORMAL of the way back to the camera
+            near = idx[:near_normal(h, np.ascontiguousarray(f, dtype=float), back, _NEAR_NORMAL, idx)].copy()
             owners.append(near)
             pts.append(np.broadcast_to(f, (len(near), 3)))
         return np.concatenate(owners), np.concatenate(pts)
@@ -223,12 +227,15 @@ def dedupe(owner, r, fwd, length, n_owners=None):
 
 
 def rank_within(owner, key):
-    """Order flat entries by (owner, key) and give each its slot (rank) within its owner."""
-    order = np.lexsort((key, owner))
-    o = owner[order]
-    starts = np.r_[0, np.nonzero(np.diff(o))[0] + 1] if len(o) else np.zeros(0, dtype=np.intp)
-    counts = np.diff(np.r_[starts, len(o)])
-    slot = np.arange(len(o)) - np.repeat(starts, counts)
+    """Order flat entries by (owner, key) (stable) and give each its slot (rank) within its owner;
+    compiled (:func:`catadioptric.solvers._kernels.rank_rows`)."""
+    from ._kernels import rank_rows
+
+    owner = np.ascontiguousarray(owner, dtype=np.intp)
+    order = np.empty(len(owner), dtype=np.intp)
+    slot = np.empty(len(owner), dtype=np.intp)
+    if len(owner):
+        rank_rows(owner, np.ascontiguousarray(key, dtype=float), int(owner.max()) + 1, order, slot)
     return order, slot
 
 
@@ -257,11 +264,9 @@ def map_coefficients(h, exps, qmap, exact):
 
     h = np.ascontiguousarray(h, dtype=float)
     Q = np.empty((len(h), qmap.shape[1]))
-    qmax = np.empty(len(h))
-    monomial_map(h, exps, qmap, Q, qmax)
+    weak = np.empty(len(h), dtype=bool)
     # a bound of the terms' size: a monomial of degree d is at most max|h_i|^d
-    size = np.abs(h).max(axis=1) ** int(exps[0].sum()) * float(np.abs(qmap).max(axis=1).sum())
-    weak = qmax < _CANCELLED * size
+    monomial_map(h, exps, qmap, int(exps[0].sum()), float(np.abs(qmap).max(axis=1).sum()), _CANCELLED, Q, weak)
     if np.any(weak):
         Q[weak] = exact(h[weak])[:, :Q.shape[1]]
     return Q
