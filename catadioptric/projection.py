@@ -123,7 +123,7 @@ def visibility(cam: CatadioptricCamera, r: np.ndarray, target: np.ndarray, w: np
 
     Lengths in units of the mirror's scale; the reflected ray along a unit vector, so that
     targets of any magnitude (up to the float range) are tested alike."""
-    from .solvers._kernels import visibility_rows
+    from .solvers._batch_kernels import visibility_rows
 
     L, A, B, C, zlo, zhi = _normalised(cam.mirror)
     # the camera ray c + t (r - c): t = 1 is a root; blocked where the other, the product of roots c/a,

@@ -9,6 +9,12 @@ in the user's directory when the package's own is read-only).
 * :func:`roots_rows`: real roots in [-1, 1] (:func:`catadioptric.solvers.polynomial.roots_in_unit_interval`);
 * :func:`polish_accept`: Newton on Fermat's principle and the acceptance test
   (``ReflectionSolver._finish``);
+* :func:`monomial_map`: polynomial coefficients of targets by a fitted homogeneous map
+  (:func:`catadioptric.solvers.reflection.map_coefficients`);
+* :func:`general_back_substitution`: the general solver's candidates from the octic's roots
+  (``GeneralSolver._candidates``).
+
+The batches' bookkeeping (selections, sorting, visibility) is in :mod:`catadioptric.solvers._batch_kernels`.
 """
 from __future__ import annotations
 
@@ -17,7 +23,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["roots_rows", "polish_accept"]
+__all__ = ["roots_rows", "polish_accept", "monomial_map", "general_back_substitution"]
 
 _JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
 _STACK = 64  # intervals pending per row: subdivision is depth first, at most ~2 per level (21 levels)
@@ -124,11 +130,11 @@ def roots_rows(p, T, cluster_width, newton_iters, out_i, out_t):
             continue
         for k in range(n1):
             pn[k] = p[i, k] / scale
-        for j in range(n1):
-            acc = 0.0
-            for k in range(n1):
-                acc += pn[k] * T[k, j]
-            stack[0, j] = acc
+        for j in range(n1):  # Bernstein coefficients: independent sums, each in the order of the powers
+            stack[0, j] = 0.0
+        for k in range(n1):
+            for j in range(n1):
+                stack[0, j] += pn[k] * T[k, j]
         if stack[0, 0] == 0.0:
             out_t[m] = -1.0
             m += 1
@@ -181,22 +187,6 @@ def roots_rows(p, T, cluster_width, newton_iters, out_i, out_t):
 # -- Newton on Fermat's principle and the acceptance test
 
 @njit(**_JIT)
-def _adjugate3(M, adj):
-    a, b, c = M[0, 0], M[0, 1], M[0, 2]
-    d, e, f = M[1, 0], M[1, 1], M[1, 2]
-    g, h, i = M[2, 0], M[2, 1], M[2, 2]
-    adj[0, 0] = e * i - f * h
-    adj[0, 1] = c * h - b * i
-    adj[0, 2] = b * f - c * e
-    adj[1, 0] = f * g - d * i
-    adj[1, 1] = a * i - c * g
-    adj[1, 2] = c * d - a * f
-    adj[2, 0] = d * h - e * g
-    adj[2, 1] = b * g - a * h
-    adj[2, 2] = a * e - b * d
-
-
-@njit(**_JIT)
 def _solve4(a, b, out):
     """``a x = -b`` by elimination with partial pivoting (a and b overwritten); x = 0 when
     |det a| <= 1e-300."""
@@ -231,82 +221,70 @@ def _solve4(a, b, out):
 
 
 @njit(**_JIT)
-def _polish(r, h, sg, A, B, C, c, iters, M, adj, J, rhs, sol, work):
-    """Newton on ``grad(|r - c| + sg phi(r)) + mu grad(Omega) = 0``, ``Omega(r) = 0`` in place
-    (``ReflectionSolver._finish``, one candidate); the other arguments are work space."""
-    hom = (2.0, 2.0, 2.0 * A)
-    u = work[0]
-    v = work[1]
-    grad = work[2]
-    gO = work[3]
-    f1 = work[4]
-    adj_g = work[5]
-    delta = work[6]
+def _polish(r, h, sg, A, B, C, c, iters):
+    """Newton on ``grad(|r - c| + sg phi(r)) + mu grad(Omega) = 0``, ``Omega(r) = 0``, ``r`` in place
+    (``ReflectionSolver._finish``, one candidate): the Schur complement of the bordered Hessian
+    ``[[M, g], [g^T, 0]]``, ``M = Hess f + mu Hess Omega``, by M's adjugate; the bordered system
+    directly where M is nearly singular. Scalars throughout (the 3x3 algebra written out)."""
+    r0, r1, r2 = r[0], r[1], r[2]
+    h0, h1, h2, h3 = h[0], h[1], h[2], h[3]
     mu = 0.0
     for it in range(iters):
-        rc0, rc1, rc2 = r[0] - c[0], r[1] - c[1], r[2] - c[2]
+        rc0, rc1, rc2 = r0 - c[0], r1 - c[1], r2 - c[2]
         lc = math.sqrt(rc0 * rc0 + rc1 * rc1 + rc2 * rc2)
-        u[0], u[1], u[2] = rc0 / lc, rc1 / lc, rc2 / lc
-        tw0, tw1, tw2 = h[0] - h[3] * r[0], h[1] - h[3] * r[1], h[2] - h[3] * r[2]
+        u0, u1, u2 = rc0 / lc, rc1 / lc, rc2 / lc
+        tw0, tw1, tw2 = h0 - h3 * r0, h1 - h3 * r1, h2 - h3 * r2
         tn = math.sqrt(tw0 * tw0 + tw1 * tw1 + tw2 * tw2)
         if not tn > 0:
             tn = 1.0
-        v[0], v[1], v[2] = -tw0 / tn, -tw1 / tn, -tw2 / tn
-        inv_lp = h[3] / tn
-        for k in range(3):
-            grad[k] = u[k] + sg * v[k]
-        gO[0], gO[1], gO[2] = 2 * r[0], 2 * r[1], 2 * A * r[2] + B
-        Om = r[0] ** 2 + r[1] ** 2 + A * r[2] ** 2 + B * r[2] - C
+        v0, v1, v2 = -tw0 / tn, -tw1 / tn, -tw2 / tn
+        inv_lp = h3 / tn
+        gr0, gr1, gr2 = u0 + sg * v0, u1 + sg * v1, u2 + sg * v2
+        g0, g1, g2 = 2 * r0, 2 * r1, 2 * A * r2 + B
+        Om = r0 ** 2 + r1 ** 2 + A * r2 ** 2 + B * r2 - C
         if it == 0:
-            mu = -(grad[0] * gO[0] + grad[1] * gO[1] + grad[2] * gO[2]) / (gO[0] * gO[0] + gO[1] * gO[1] + gO[2] * gO[2])
+            mu = -(gr0 * g0 + gr1 * g1 + gr2 * g2) / (g0 * g0 + g1 * g1 + g2 * g2)
         w = inv_lp * sg
-        for i in range(3):
-            for j in range(3):
-                e = 1.0 if i == j else 0.0
-                M[i, j] = (e - u[i] * u[j]) / lc + (e - v[i] * v[j]) * w + mu * (hom[i] if i == j else 0.0)
-        for k in range(3):
-            f1[k] = grad[k] + mu * gO[k]
-        _adjugate3(M, adj)
-        detM = M[0, 0] * adj[0, 0] + M[0, 1] * adj[1, 0] + M[0, 2] * adj[2, 0]
-        big = 0.0
-        for i in range(3):
-            adj_g[i] = adj[i, 0] * gO[0] + adj[i, 1] * gO[1] + adj[i, 2] * gO[2]
-            for j in range(3):
-                big = max(big, abs(adj[i, j]))
-        den = gO[0] * adj_g[0] + gO[1] * adj_g[1] + gO[2] * adj_g[2]
-        dmu = (Om * detM - (adj_g[0] * f1[0] + adj_g[1] * f1[1] + adj_g[2] * f1[2])) / den
-        finite = math.isfinite(dmu)
-        for i in range(3):
-            g0, g1, g2 = f1[0] + gO[0] * dmu, f1[1] + gO[1] * dmu, f1[2] + gO[2] * dmu
-            delta[i] = -(adj[i, 0] * g0 + adj[i, 1] * g1 + adj[i, 2] * g2) / detM
-            finite = finite and math.isfinite(delta[i])
-        delta[3] = dmu
+        # M = (I - u u^T) / lc + (I - v v^T) w + mu diag(2, 2, 2A)
+        m00 = (1.0 - u0 * u0) / lc + (1.0 - v0 * v0) * w + mu * 2.0
+        m01 = (0.0 - u0 * u1) / lc + (0.0 - v0 * v1) * w + mu * 0.0
+        m02 = (0.0 - u0 * u2) / lc + (0.0 - v0 * v2) * w + mu * 0.0
+        m10 = (0.0 - u1 * u0) / lc + (0.0 - v1 * v0) * w + mu * 0.0
+        m11 = (1.0 - u1 * u1) / lc + (1.0 - v1 * v1) * w + mu * 2.0
+        m12 = (0.0 - u1 * u2) / lc + (0.0 - v1 * v2) * w + mu * 0.0
+        m20 = (0.0 - u2 * u0) / lc + (0.0 - v2 * v0) * w + mu * 0.0
+        m21 = (0.0 - u2 * u1) / lc + (0.0 - v2 * v1) * w + mu * 0.0
+        m22 = (1.0 - u2 * u2) / lc + (1.0 - v2 * v2) * w + mu * (2.0 * A)
+        f0, f1, f2 = gr0 + mu * g0, gr1 + mu * g1, gr2 + mu * g2
+        a00, a01, a02 = m11 * m22 - m12 * m21, m02 * m21 - m01 * m22, m01 * m12 - m02 * m11
+        a10, a11, a12 = m12 * m20 - m10 * m22, m00 * m22 - m02 * m20, m02 * m10 - m00 * m12
+        a20, a21, a22 = m10 * m21 - m11 * m20, m01 * m20 - m00 * m21, m00 * m11 - m01 * m10
+        detM = m00 * a00 + m01 * a10 + m02 * a20
+        big = max(abs(a00), abs(a01), abs(a02), abs(a10), abs(a11), abs(a12), abs(a20), abs(a21), abs(a22))
+        ag0 = a00 * g0 + a01 * g1 + a02 * g2
+        ag1 = a10 * g0 + a11 * g1 + a12 * g2
+        ag2 = a20 * g0 + a21 * g1 + a22 * g2
+        den = g0 * ag0 + g1 * ag1 + g2 * ag2
+        dmu = (Om * detM - (ag0 * f0 + ag1 * f1 + ag2 * f2)) / den
+        e0, e1, e2 = f0 + g0 * dmu, f1 + g1 * dmu, f2 + g2 * dmu
+        d0 = -(a00 * e0 + a01 * e1 + a02 * e2) / detM
+        d1 = -(a10 * e0 + a11 * e1 + a12 * e2) / detM
+        d2 = -(a20 * e0 + a21 * e1 + a22 * e2) / detM
+        d3 = dmu
+        finite = math.isfinite(d0) and math.isfinite(d1) and math.isfinite(d2) and math.isfinite(d3)
         if not finite or abs(detM) <= 1e-12 * big:  # M (nearly) singular: the bordered system directly
-            for i in range(3):
-                for j in range(3):
-                    J[i, j] = M[i, j]
-                J[i, 3] = gO[i]
-                J[3, i] = gO[i]
-                rhs[i] = f1[i]
-            J[3, 3] = 0.0
-            rhs[3] = Om
-            _solve4(J, rhs, sol)
-            for i in range(4):
-                delta[i] = sol[i]
-        ok = True
-        for i in range(4):
-            ok = ok and math.isfinite(delta[i])
-        if not ok:
-            for i in range(4):
-                delta[i] = 0.0
-        step = 0.0
-        for i in range(3):
-            r[i] += delta[i]
-            step = max(step, abs(delta[i]))
-        mu += delta[3]
+            J = np.array([[m00, m01, m02, g0], [m10, m11, m12, g1], [m20, m21, m22, g2], [g0, g1, g2, 0.0]])
+            sol = np.empty(4)
+            _solve4(J, np.array([f0, f1, f2, Om]), sol)
+            d0, d1, d2, d3 = sol[0], sol[1], sol[2], sol[3]
+        if not (math.isfinite(d0) and math.isfinite(d1) and math.isfinite(d2) and math.isfinite(d3)):
+            d0, d1, d2, d3 = 0.0, 0.0, 0.0, 0.0
+        r0, r1, r2 = r0 + d0, r1 + d1, r2 + d2
+        mu += d3
         # quadratic convergence: after a step below 1e-8 the error is at rounding level
-        if not step > 1e-8:
+        if not max(abs(d0), abs(d1), abs(d2)) > 1e-8:
             break
+    r[0], r[1], r[2] = r0, r1, r2
 
 
 @njit(**_JIT)
@@ -314,12 +292,6 @@ def polish_accept(h, owner, r0, A, B, C, c, zlo, zhi, backward, iters, accept, o
     """Per candidate ``r0[i]`` of target ``h[owner[i]]`` (solver frame): the side of the reflected
     ray (``sigma``), Newton's polish, and the acceptance test (``ReflectionSolver._finish``)."""
     r = np.empty(3)
-    M = np.empty((3, 3))
-    adj = np.empty((3, 3))
-    J = np.zeros((4, 4))
-    rhs = np.empty(4)
-    sol = np.empty(4)
-    work = np.empty((7, 4))
     for i in range(len(owner)):
         hi = h[owner[i]]
         r[0], r[1], r[2] = r0[i, 0], r0[i, 1], r0[i, 2]
@@ -333,7 +305,7 @@ def polish_accept(h, owner, r0, A, B, C, c, zlo, zhi, backward, iters, accept, o
         if not backward and sg < 0:
             out_ok[i] = False
             continue
-        _polish(r, hi, sg, A, B, C, c, iters, M, adj, J, rhs, sol, work)
+        _polish(r, hi, sg, A, B, C, c, iters)
         n0, n1, n2 = r[0], r[1], A * r[2] + 0.5 * B
         i0, i1, i2 = r[0] - c[0], r[1] - c[1], r[2] - c[2]
         nn = n0 * n0 + n1 * n1 + n2 * n2
@@ -369,24 +341,22 @@ def monomial_map(h, exps, qmap, degree, qsum, cancelled, Q, weak):
         for k in range(nv):
             d = max(d, exps[j, k])
     pw = np.empty((nv, d + 1))
-    mo = np.empty(J)
-    qmap_t = np.ascontiguousarray(qmap.T)
+    acc = np.empty(n_out)
     for i in range(N):
         for k in range(nv):
             pw[k, 0] = 1.0
             for e in range(1, d + 1):
                 pw[k, e] = pw[k, e - 1] * h[i, k]
-        for j in range(J):
-            mono = 1.0
-            for k in range(nv):
-                if exps[j, k]:
-                    mono *= pw[k, exps[j, k]]
-            mo[j] = mono
         for o in range(n_out):
-            acc = 0.0
-            for j in range(J):
-                acc += mo[j] * qmap_t[o, j]
-            Q[i, o] = acc
+            acc[o] = 0.0
+        for j in range(J):  # independent sums over the outputs, each in the order of the monomials
+            mono = pw[0, exps[j, 0]]  # a power 0 is 1.0, an exact factor
+            for k in range(1, nv):
+                mono *= pw[k, exps[j, k]]
+            for o in range(n_out):
+                acc[o] += mono * qmap[j, o]
+        for o in range(n_out):
+            Q[i, o] = acc[o]
         big = 0.0
         for o in range(n_out):
             big = max(big, abs(Q[i, o]))
@@ -479,128 +449,3 @@ def general_back_substitution(h, owner, t, gmap, emap, f1, f0, A, B, C, zt, scre
                 out_r[m, 2] = z
                 m += 1
     return m
-
-
-# -- flat solutions sorted by (owner, z), repeats dropped
-
-@njit(**_JIT)
-def sorted_unique(owner, r, fwd, n_owners, tol, out_idx):
-    """Indices of the flat solutions ordered by (owner, z) (stable: ties keep their order), without
-    repeats: an entry within ``tol`` of an earlier entry of its owner on the same side (``fwd``);
-    returns their number (:func:`catadioptric.solvers.reflection.dedupe`)."""
-    n = len(owner)
-    start = np.zeros(n_owners + 1, dtype=np.intp)
-    for i in range(n):
-        start[owner[i] + 1] += 1
-    for o in range(n_owners):
-        start[o + 1] += start[o]
-    pos = start[:-1].copy()
-    order = np.empty(n, dtype=np.intp)
-    for i in range(n):
-        order[pos[owner[i]]] = i
-        pos[owner[i]] += 1
-    m = 0
-    for o in range(n_owners):
-        a, b = start[o], start[o + 1]
-        for j in range(a + 1, b):  # insertion sort by z, stable
-            x = order[j]
-            k = j - 1
-            while k >= a and r[order[k], 2] > r[x, 2]:
-                order[k + 1] = order[k]
-                k -= 1
-            order[k + 1] = x
-        for j in range(a, b):
-            x = order[j]
-            dup = False
-            for k in range(a, j):
-                y = order[k]
-                d0, d1, d2 = r[x, 0] - r[y, 0], r[x, 1] - r[y, 1], r[x, 2] - r[y, 2]
-                if fwd[x] == fwd[y] and math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) <= tol:
-                    dup = True
-                    break
-            if not dup:
-                out_idx[m] = x
-                m += 1
-    return m
-
-
-# -- visibility of reflection points
-
-@njit(**_JIT)
-def visibility_rows(r, target, w, A, B, C, zlo, zhi, L, center, rz, out):
-    """``catadioptric.projection.visibility`` one point at a time (its docstring has the tests);
-    ``rz`` is the camera's optical axis in the mirror frame (third row of R_cam_from_mirror)."""
-    eps = 1e-9
-    c0, c1, c2 = center[0] / L, center[1] / L, center[2] / L
-    cc = c0 ** 2 + c1 ** 2 + A * c2 ** 2 + B * c2 - C
-    for i in range(len(r)):
-        rn0, rn1, rn2 = r[i, 0] / L, r[i, 1] / L, r[i, 2] / L
-        d0, d1, d2 = rn0 - c0, rn1 - c1, rn2 - c2
-        a = d0 ** 2 + d1 ** 2 + A * d2 ** 2
-        t_other = cc / a
-        zo = c2 + t_other * d2
-        blocked_in = t_other > eps and t_other < 1 - eps and zo >= zlo and zo <= zhi
-        wi = w[i]
-        q0, q1, q2 = target[i, 0] - wi * r[i, 0], target[i, 1] - wi * r[i, 1], target[i, 2] - wi * r[i, 2]
-        m = max(abs(q0), abs(q1), abs(q2))
-        u0, u1, u2 = q0 / m, q1 / m, q2 / m
-        nu = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
-        v0, v1, v2 = u0 / nu, u1 / nu, u2 / nu
-        a2 = v0 ** 2 + v1 ** 2 + A * v2 ** 2
-        b2 = 2 * (rn0 * v0 + rn1 * v1 + A * rn2 * v2) + B * v2
-        t2 = -b2 / a2
-        if wi > 0.5:
-            length = m * nu if m > 0 else 0.0
-            t_end = length / L * (1 - eps)
-        else:
-            t_end = np.inf
-        zo2 = rn2 + t2 * v2
-        blocked_out = t2 > eps and t2 < t_end and zo2 >= zlo and zo2 <= zhi
-        front = ((r[i, 0] - center[0]) * rz[0] + (r[i, 1] - center[1]) * rz[1]) + (r[i, 2] - center[2]) * rz[2] > 0
-        out[i] = not blocked_in and not blocked_out and front
-
-
-# -- targets near a normal line (camera - foot)
-
-@njit(**_JIT)
-def near_normal(h, foot, back, tol, out_idx):
-    """Indices of the targets ``h (N, 4)`` whose direction from ``foot`` is within sine ``tol`` of the
-    unit vector ``back`` (``ReflectionSolver._feet_candidates``); returns their number."""
-    m = 0
-    for i in range(len(h)):
-        t0, t1, t2 = h[i, 0] - h[i, 3] * foot[0], h[i, 1] - h[i, 3] * foot[1], h[i, 2] - h[i, 3] * foot[2]
-        tn = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
-        x0, x1, x2 = t1 * back[2] - t2 * back[1], t2 * back[0] - t0 * back[2], t0 * back[1] - t1 * back[0]
-        if math.sqrt(x0 * x0 + x1 * x1 + x2 * x2) <= tol * tn and tn > 0:
-            out_idx[m] = i
-            m += 1
-    return m
-
-
-# -- slots of flat entries within their owner
-
-@njit(**_JIT)
-def rank_rows(owner, key, n_owners, order, slot):
-    """``order``: the entries sorted by (owner, key), stable; ``slot``: each sorted entry's rank within
-    its owner (``catadioptric.solvers.reflection.rank_within``)."""
-    n = len(owner)
-    start = np.zeros(n_owners + 1, dtype=np.intp)
-    for i in range(n):
-        start[owner[i] + 1] += 1
-    for o in range(n_owners):
-        start[o + 1] += start[o]
-    pos = start[:-1].copy()
-    for i in range(n):
-        order[pos[owner[i]]] = i
-        pos[owner[i]] += 1
-    for o in range(n_owners):
-        a, b = start[o], start[o + 1]
-        for j in range(a + 1, b):  # insertion sort by key, stable (NaN keys last, as a lexsort)
-            x = order[j]
-            k = j - 1
-            while k >= a and (key[order[k]] > key[x] or (key[order[k]] != key[order[k]] and key[x] == key[x])):
-                order[k + 1] = order[k]
-                k -= 1
-            order[k + 1] = x
-        for j in range(a, b):
-            slot[j] = j - a

@@ -115,7 +115,7 @@ class GeneralSolver(ReflectionSolver):
     def _candidates(self, h):
         e1 = (np.abs(h[:, 1]) <= 1e-12) & (np.abs(h[:, 2]) <= 1e-12) & (h[:, 3] == 0)
         gen = np.nonzero(~e1)[0]
-        hg = h[gen]
+        hg = h[gen] if len(gen) < len(h) else h
         exps, qmap = (self._exps_dir, self._qmap_dir) if np.all(hg[:, 3] == 0) else (self._exps, self._qmap)
         Q = map_coefficients(hg, exps, qmap, self._octic)
         ridx, t = roots_in_unit_interval(Q)
@@ -157,7 +157,11 @@ class GeneralSolver(ReflectionSolver):
         plane pair (a cusp of the caustic) the octic holds the three in one cluster of roots, too
         poor to back-substitute; in the plane the solution is a simple root. Near the plane the
         in-plane solutions are starting points for the polish."""
-        idx = np.nonzero(ok & (np.abs(h[:, 0]) <= _NEAR_PLANE * np.abs(h[:, 1:]).max(axis=1)))[0]
+        from ._batch_kernels import near_plane
+
+        idx = np.empty(len(h), dtype=np.intp)
+        idx = idx[:near_plane(np.ascontiguousarray(h, dtype=float), np.ascontiguousarray(ok, dtype=bool), _NEAR_PLANE,
+                              idx)].copy()
         if not len(idx):
             return np.zeros(0, dtype=np.intp), np.zeros((0, 3))
         hp = h[idx].copy()

@@ -14,8 +14,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._numeric import unit
-
 __all__ = ["ReflectionSolutions", "ReflectionSolver", "reflect", "monomials", "exponents"]
 
 # after polishing, a reflection point must satisfy the law to this (sine of the angle)
@@ -129,7 +127,7 @@ class ReflectionSolver:
         feet = self._feet
         if not len(feet):
             return np.zeros(0, dtype=np.intp), np.zeros((0, 3))
-        from ._kernels import near_normal
+        from ._batch_kernels import near_normal
 
         owners, pts = [], []
         h = np.ascontiguousarray(h, dtype=float)
@@ -170,11 +168,14 @@ class ReflectionSolver:
 
     def solve_flat(self, targets, w, *, backward=False):
         """Like :meth:`solve`, as flat arrays ``(owner, points, forward)`` without duplicates."""
-        targets = np.asarray(targets, dtype=float)
+        from ._batch_kernels import homogeneous_units
+
+        targets = np.ascontiguousarray(targets, dtype=float).reshape(-1, 3)
         N = len(targets)
         w = np.broadcast_to(np.asarray(w, float), (N,))
         # (p / L, 1) ~ (p, L): a unit homogeneous 4-vector without dividing, so that no magnitude overflows
-        h = unit(np.concatenate([targets, (w > 0)[:, None] * self.L], axis=1))
+        h = np.empty((N, 4))
+        homogeneous_units(targets, np.ascontiguousarray((w > 0) * self.L, dtype=float), h)
         hf, cs, sn = self._frame(h)
         owner, r0 = self._candidates(hf)
         fo, fr = self._feet_candidates(hf)
@@ -212,8 +213,8 @@ class ReflectionSolver:
 def dedupe(owner, r, fwd, length, n_owners=None):
     """Sort flat solutions by (owner, z) and drop repeats of one solution of one target (points
     closer than ``DEDUP`` times ``length``, the mirror's scale in the unit of ``r``, on the same
-    side); compiled (:func:`catadioptric.solvers._kernels.sorted_unique`)."""
-    from ._kernels import sorted_unique
+    side); compiled (:func:`catadioptric.solvers._batch_kernels.sorted_unique`)."""
+    from ._batch_kernels import sorted_unique
 
     if len(owner) == 0:
         return owner, r, fwd
@@ -228,8 +229,8 @@ def dedupe(owner, r, fwd, length, n_owners=None):
 
 def rank_within(owner, key):
     """Order flat entries by (owner, key) (stable) and give each its slot (rank) within its owner;
-    compiled (:func:`catadioptric.solvers._kernels.rank_rows`)."""
-    from ._kernels import rank_rows
+    compiled (:func:`catadioptric.solvers._batch_kernels.rank_rows`)."""
+    from ._batch_kernels import rank_rows
 
     owner = np.ascontiguousarray(owner, dtype=np.intp)
     order = np.empty(len(owner), dtype=np.intp)
