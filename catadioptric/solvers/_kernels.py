@@ -26,6 +26,7 @@ from numba import njit
 __all__ = ["roots_rows", "polish_accept", "monomial_map", "general_back_substitution"]
 
 _JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
+_BLOCK = 64  # rows per block of the loops that run along rows
 _STACK = 64  # intervals pending per row: subdivision is depth first, at most ~2 per level (21 levels)
 
 
@@ -332,38 +333,49 @@ def polish_accept(h, owner, r0, A, B, C, c, zlo, zhi, backward, iters, accept, o
 @njit(**_JIT)
 def monomial_map(h, exps, qmap, degree, qsum, cancelled, Q, weak):
     """``Q[i] = monomials(h[i]) @ qmap`` (``catadioptric.solvers.reflection.map_coefficients``), monomials
-    ``prod_k h[i, k]^exps[j, k]`` from powers built by products, and ``weak[i]``: ``max |Q[i]|`` below
-    ``cancelled`` times the bound ``max_k |h[i, k]|^degree qsum`` of its terms."""
+    ``prod_k h[i, k]^exps[j, k]`` from powers built by products, each output summed in the order of
+    the monomials, and ``weak[i]``: ``max |Q[i]|`` below ``cancelled`` times the bound
+    ``max_k |h[i, k]|^degree qsum`` of its terms. Blocks of ``_BLOCK`` rows, so that the innermost
+    loops run along rows (the same operations for every row of a block)."""
     N, nv = h.shape
     J, n_out = qmap.shape
     d = 0
     for j in range(J):
         for k in range(nv):
             d = max(d, exps[j, k])
-    pw = np.empty((nv, d + 1))
-    acc = np.empty(n_out)
-    for i in range(N):
+    pw = np.empty((nv, d + 1, _BLOCK))
+    mono = np.empty(_BLOCK)
+    acc = np.empty((n_out, _BLOCK))
+    for s in range(0, N, _BLOCK):
+        nb = min(_BLOCK, N - s)
         for k in range(nv):
-            pw[k, 0] = 1.0
+            for i in range(nb):
+                pw[k, 0, i] = 1.0
             for e in range(1, d + 1):
-                pw[k, e] = pw[k, e - 1] * h[i, k]
-        for o in range(n_out):
-            acc[o] = 0.0
-        for j in range(J):  # independent sums over the outputs, each in the order of the monomials
-            mono = pw[0, exps[j, 0]]  # a power 0 is 1.0, an exact factor
+                for i in range(nb):
+                    pw[k, e, i] = pw[k, e - 1, i] * h[s + i, k]
+        acc[:, :nb] = 0.0
+        for j in range(J):
+            e0 = exps[j, 0]
+            for i in range(nb):
+                mono[i] = pw[0, e0, i]  # a power 0 is 1.0, an exact factor
             for k in range(1, nv):
-                mono *= pw[k, exps[j, k]]
+                ek = exps[j, k]
+                for i in range(nb):
+                    mono[i] *= pw[k, ek, i]
             for o in range(n_out):
-                acc[o] += mono * qmap[j, o]
-        for o in range(n_out):
-            Q[i, o] = acc[o]
-        big = 0.0
-        for o in range(n_out):
-            big = max(big, abs(Q[i, o]))
-        hm = 0.0
-        for k in range(nv):
-            hm = max(hm, abs(h[i, k]))
-        weak[i] = big < cancelled * (hm ** degree * qsum)
+                q = qmap[j, o]
+                for i in range(nb):
+                    acc[o, i] += mono[i] * q
+        for i in range(nb):
+            big = 0.0
+            for o in range(n_out):
+                Q[s + i, o] = acc[o, i]
+                big = max(big, abs(acc[o, i]))
+            hm = 0.0
+            for k in range(nv):
+                hm = max(hm, abs(h[s + i, k]))
+            weak[s + i] = big < cancelled * (hm ** degree * qsum)
 
 
 # -- the general solver's back-substitution
