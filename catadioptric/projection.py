@@ -162,11 +162,13 @@ class FlatSolutions:
         order, slot = rank_within(o, k)
         ok = slot < K
         o, sl, sel = o[order][ok], slot[ok], np.nonzero(keep)[0][order][ok]
+        from .solvers._batch_kernels import put_rows
+
         r = np.full((N, K, 3), np.nan)
         uv = np.full((N, K, 2), np.nan)
         at = o * K + sl  # flat slot
-        r.reshape(-1, 3)[at] = self.points[sel]
-        uv.reshape(-1, 2)[at] = self.uv[sel]
+        put_rows(r.reshape(-1, 3), at, np.ascontiguousarray(self.points, dtype=float), sel)
+        put_rows(uv.reshape(-1, 2), at, np.ascontiguousarray(self.uv, dtype=float), sel)
         return o, sl, sel, r, uv
 
 

@@ -79,7 +79,7 @@ def vanishing_points(cam: CatadioptricCamera, directions, *, which: str = "+s") 
     if np.any(zero):
         i = int(np.argmax(zero))
         raise CatadioptricError(f"directions: expected non-zero vectors, got a zero vector at flat index {i}")
-    flat = unit(flat)
+    # any length: the solvers scale each direction to a unit homogeneous 4-vector themselves
     fs = solve_targets(cam, flat, 0.0, backward=(which == "both"))
     N, K = len(flat), cam.solver.max_solutions
     sign_flat = np.where(fs.forward, 1, -1).astype(np.int8)

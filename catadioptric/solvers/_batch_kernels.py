@@ -1,7 +1,7 @@
 """The compiled bookkeeping of the reflection solvers' batches (numba), one entry at a time:
 targets as unit homogeneous 4-vectors, the selections of targets near a normal line or near the
 plane of the camera and the axis, the flat solutions sorted by owner (repeats dropped, slots
-ranked), and the visibility of reflection points. Like :mod:`catadioptric.solvers._kernels`
+ranked, put into their slots), and the visibility of reflection points. Like :mod:`catadioptric.solvers._kernels`
 (the solvers' arithmetic): the same operations in the same order as the routines that call them
 document, float64, no fast-math, cached.
 """
@@ -12,7 +12,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["homogeneous_units", "near_normal", "near_plane", "sorted_unique", "rank_rows", "visibility_rows"]
+__all__ = ["homogeneous_units", "near_normal", "near_plane", "sorted_unique", "rank_rows", "visibility_rows", "put_rows"]
 
 _JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
 
@@ -158,3 +158,13 @@ def near_plane(h, ok, tol, out_idx):
             out_idx[m] = i
             m += 1
     return m
+
+
+# -- flat entries into NaN-padded slots
+
+@njit(**_JIT)
+def put_rows(dst, at, src, sel):
+    """``dst[at[q]] = src[sel[q]]`` row by row (``dst (M, d)`` a flat view of the slots)."""
+    for q in range(len(at)):
+        for j in range(dst.shape[1]):
+            dst[at[q], j] = src[sel[q], j]

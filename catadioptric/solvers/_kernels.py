@@ -289,10 +289,12 @@ def _polish(r, h, sg, A, B, C, c, iters):
 
 
 @njit(**_JIT)
-def polish_accept(h, owner, r0, A, B, C, c, zlo, zhi, backward, iters, accept, out_r, out_fwd, out_ok):
+def polish_accept(h, owner, r0, A, B, C, c, zlo, zhi, backward, iters, accept, out_owner, out_r, out_fwd):
     """Per candidate ``r0[i]`` of target ``h[owner[i]]`` (solver frame): the side of the reflected
-    ray (``sigma``), Newton's polish, and the acceptance test (``ReflectionSolver._finish``)."""
+    ray (``sigma``), Newton's polish, and the acceptance test (``ReflectionSolver._finish``); the
+    accepted ones, in their order, to ``out_owner``, ``out_r``, ``out_fwd``; returns their number."""
     r = np.empty(3)
+    m = 0
     for i in range(len(owner)):
         hi = h[owner[i]]
         r[0], r[1], r[2] = r0[i, 0], r0[i, 1], r0[i, 2]
@@ -304,7 +306,6 @@ def polish_accept(h, owner, r0, A, B, C, c, zlo, zhi, backward, iters, accept, o
         tg = (d0 * (hi[0] - hi[3] * r[0]) + d1 * (hi[1] - hi[3] * r[1])) + d2 * (hi[2] - hi[3] * r[2])
         sg = 1.0 if tg >= 0 else -1.0
         if not backward and sg < 0:
-            out_ok[i] = False
             continue
         _polish(r, hi, sg, A, B, C, c, iters)
         n0, n1, n2 = r[0], r[1], A * r[2] + 0.5 * B
@@ -322,10 +323,13 @@ def polish_accept(h, owner, r0, A, B, C, c, zlo, zhi, backward, iters, accept, o
         sine = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
         fwd = (d0 * t0 + d1 * t1) + d2 * t2 > 0
         om = r[0] ** 2 + r[1] ** 2 + A * r[2] ** 2 + B * r[2] - C
-        out_r[i, 0], out_r[i, 1], out_r[i, 2] = r[0], r[1], r[2]
-        out_fwd[i] = fwd
-        out_ok[i] = (math.isfinite(sine) and sine <= accept and abs(om) <= 1e-10 and fwd == (sg > 0)
-                     and r[2] >= zlo - 1e-12 and r[2] <= zhi + 1e-12 and math.sqrt(nn) > 1e-9 and tn > 0)
+        if (math.isfinite(sine) and sine <= accept and abs(om) <= 1e-10 and fwd == (sg > 0)
+                and r[2] >= zlo - 1e-12 and r[2] <= zhi + 1e-12 and math.sqrt(nn) > 1e-9 and tn > 0):
+            out_owner[m] = owner[i]
+            out_r[m, 0], out_r[m, 1], out_r[m, 2] = r[0], r[1], r[2]
+            out_fwd[m] = fwd
+            m += 1
+    return m
 
 
 # -- polynomial coefficients of targets by a fitted homogeneous map

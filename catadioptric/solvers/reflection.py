@@ -201,13 +201,13 @@ class ReflectionSolver:
         from ._kernels import polish_accept
 
         owner = np.ascontiguousarray(owner, dtype=np.intp)
+        out_o = np.empty(len(owner), dtype=np.intp)
         r = np.empty((len(owner), 3))
         fwd = np.empty(len(owner), dtype=bool)
-        ok = np.empty(len(owner), dtype=bool)
-        polish_accept(np.ascontiguousarray(h, dtype=float), owner, np.ascontiguousarray(r0, dtype=float),
-                      self.A, self.B, self.C, np.ascontiguousarray(self._c_frame, dtype=float), self.zlo, self.zhi,
-                      bool(backward), 6, ACCEPT, r, fwd, ok)
-        return owner[ok], r[ok], fwd[ok]
+        m = polish_accept(np.ascontiguousarray(h, dtype=float), owner, np.ascontiguousarray(r0, dtype=float),
+                          self.A, self.B, self.C, np.ascontiguousarray(self._c_frame, dtype=float), self.zlo, self.zhi,
+                          bool(backward), 6, ACCEPT, out_o, r, fwd)
+        return out_o[:m], r[:m], fwd[:m]
 
 
 def dedupe(owner, r, fwd, length, n_owners=None):
