@@ -1,9 +1,9 @@
 """The compiled bookkeeping of the reflection solvers' batches (numba), one entry at a time:
 targets as unit homogeneous 4-vectors, the selections of targets near a normal line or near the
 plane of the camera and the axis, the flat solutions sorted by owner (repeats dropped, slots
-ranked, put into their slots), and the visibility of reflection points. Like :mod:`catadioptric.solvers._kernels`
-(the solvers' arithmetic): the same operations in the same order as the routines that call them
-document, float64, no fast-math, cached.
+ranked, put into their slots), and the visibility of reflection points. Like
+:mod:`catadioptric.solvers._kernels` (the solvers' arithmetic): the formulas of the routines
+that call them and document them, float64, no fast-math, one entry at a time, cached.
 """
 from __future__ import annotations
 
@@ -140,8 +140,8 @@ def rank_rows(owner, key, n_owners, order, slot):
 
 @njit(**_JIT)
 def homogeneous_units(targets, w4, out):
-    """``out[i] = unit((targets[i], w4[i]))`` as :func:`catadioptric._numeric.unit` computes it (divided
-    by the largest component first, then by the norm; NaN for a zero vector)."""
+    """``out[i] = unit((targets[i], w4[i]))`` the way of :func:`catadioptric._numeric.unit` (divided by
+    the largest component first, then by the norm: no overflow nor underflow; NaN for a zero vector)."""
     for i in range(len(targets)):
         m = max(abs(targets[i, 0]), abs(targets[i, 1]), abs(targets[i, 2]), abs(w4[i]))
         a0, a1, a2, a3 = targets[i, 0] / m, targets[i, 1] / m, targets[i, 2] / m, w4[i] / m
