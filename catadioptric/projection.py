@@ -123,29 +123,21 @@ def visibility(cam: CatadioptricCamera, r: np.ndarray, target: np.ndarray, w: np
 
     Lengths in units of the mirror's scale; the reflected ray along a unit vector, so that
     targets of any magnitude (up to the float range) are tested alike."""
+    from .solvers._batch_kernels import visibility_rows
+
     L, A, B, C, zlo, zhi = _normalised(cam.mirror)
-    c = cam.center / L
-    rn = r / L
-    eps = 1e-9
-    # camera ray c + t (r - c): t = 1 is a root; the other is the product of roots c/a
-    d = rn - c
-    a, b, cc = _quadratic_coeffs(A, B, C, np.broadcast_to(c, rn.shape), d)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        t_other = cc / a
-        zo = c[2] + t_other * d[..., 2]
-    blocked_in = (t_other > eps) & (t_other < 1 - eps) & (zo >= zlo) & (zo <= zhi)
-    # reflected ray r + t v, v the unit vector toward the target: t = 0 is a root; the other is -b/a;
-    # the target is at t = |target - r| (w = 1) or at infinity (w = 0)
-    toward = target - w[..., None] * r
-    v = unit(toward)
-    a2, b2, _ = _quadratic_coeffs(A, B, C, rn, v)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        t2 = -b2 / a2
-        t_end = np.where(w > 0.5, norm(toward) / L * (1 - eps), np.inf)
-        zo2 = rn[..., 2] + t2 * v[..., 2]
-    blocked_out = (t2 > eps) & (t2 < t_end) & (zo2 >= zlo) & (zo2 <= zhi)
-    front = cam.to_camera(r)[..., 2] > 0
-    return ~blocked_in & ~blocked_out & front
+    # the camera ray c + t (r - c): t = 1 is a root; blocked where the other, the product of roots c/a,
+    # is in (eps, 1 - eps) and on the patch; the reflected ray r + t v, v the unit vector toward the
+    # target: t = 0 is a root, blocked where the other, -b/a, is in (eps, |target - r| (1 - eps)) (w = 1)
+    # or beyond eps (w = 0) and on the patch; eps = 1e-9. One point at a time, compiled.
+    shape = np.shape(r)[:-1]
+    rf = np.ascontiguousarray(r, dtype=float).reshape(-1, 3)
+    tg = np.ascontiguousarray(np.broadcast_to(target, shape + (3,)), dtype=float).reshape(-1, 3)
+    ww = np.ascontiguousarray(np.broadcast_to(w, shape), dtype=float).reshape(-1)
+    out = np.empty(len(rf), dtype=bool)
+    visibility_rows(rf, tg, ww, A, B, C, zlo, zhi, L, np.asarray(cam.center, dtype=float),
+                    np.ascontiguousarray(cam.R_cam_from_mirror[2], dtype=float), out)
+    return out.reshape(shape)
 
 
 CHUNK = 1 << 16  # targets per batch: large enough to amortise numpy, small enough to stay in cache
@@ -170,10 +162,13 @@ class FlatSolutions:
         order, slot = rank_within(o, k)
         ok = slot < K
         o, sl, sel = o[order][ok], slot[ok], np.nonzero(keep)[0][order][ok]
+        from .solvers._batch_kernels import put_rows
+
         r = np.full((N, K, 3), np.nan)
         uv = np.full((N, K, 2), np.nan)
-        r[o, sl] = self.points[sel]
-        uv[o, sl] = self.uv[sel]
+        at = o * K + sl  # flat slot
+        put_rows(r.reshape(-1, 3), at, np.ascontiguousarray(self.points, dtype=float), sel)
+        put_rows(uv.reshape(-1, 2), at, np.ascontiguousarray(self.uv, dtype=float), sel)
         return o, sl, sel, r, uv
 
 
@@ -205,7 +200,9 @@ def project(cam: CatadioptricCamera, points) -> Projections:
     # valid first, then the other reflection points (occluded, behind the camera)
     o, sl, sel, r, uv = fs.scatter(N, K, fs.forward, (~valid_flat).astype(np.int8))
     valid = np.zeros((N, K), dtype=bool)
-    valid[o, sl] = valid_flat[sel]
-    in_img = valid & cam.pinhole.in_image(uv)
+    in_img = np.zeros((N, K), dtype=bool)
+    at = o * K + sl
+    valid.reshape(-1)[at] = valid_flat[sel]
+    in_img.reshape(-1)[at] = valid_flat[sel] & cam.pinhole.in_image(fs.uv[sel])
     return Projections(uv.reshape(shape + (K, 2)), r.reshape(shape + (K, 3)), valid.reshape(shape + (K,)),
                        in_img.reshape(shape + (K,)))

@@ -79,7 +79,7 @@ def vanishing_points(cam: CatadioptricCamera, directions, *, which: str = "+s") 
     if np.any(zero):
         i = int(np.argmax(zero))
         raise CatadioptricError(f"directions: expected non-zero vectors, got a zero vector at flat index {i}")
-    flat = unit(flat)
+    # any length: the solvers scale each direction to a unit homogeneous 4-vector themselves
     fs = solve_targets(cam, flat, 0.0, backward=(which == "both"))
     N, K = len(flat), cam.solver.max_solutions
     sign_flat = np.where(fs.forward, 1, -1).astype(np.int8)
@@ -88,10 +88,12 @@ def vanishing_points(cam: CatadioptricCamera, directions, *, which: str = "+s") 
     o, sl, sel, r, uv = fs.scatter(N, K, np.ones(len(fs.owner), dtype=bool), key)
     sign = np.zeros((N, K), dtype=np.int8)
     vis = np.zeros((N, K), dtype=bool)
-    sign[o, sl] = sign_flat[sel]
-    vis[o, sl] = fs.visible[sel]
+    inimg = np.zeros((N, K), dtype=bool)
+    at = o * K + sl  # flat slot
+    sign.reshape(-1)[at] = sign_flat[sel]
+    vis.reshape(-1)[at] = fs.visible[sel]
+    inimg.reshape(-1)[at] = fs.visible[sel] & cam.pinhole.in_image(fs.uv[sel])
     valid = vis & (sign > 0)
-    inimg = vis & cam.pinhole.in_image(uv)
     rs = lambda a, tail=(): a.reshape(shape + (K,) + tail)
     return VanishingPoints(rs(uv, (2,)), rs(r, (3,)), rs(valid), rs(sign), rs(vis), rs(inimg))
 

@@ -115,47 +115,33 @@ class GeneralSolver(ReflectionSolver):
     def _candidates(self, h):
         e1 = (np.abs(h[:, 1]) <= 1e-12) & (np.abs(h[:, 2]) <= 1e-12) & (h[:, 3] == 0)
         gen = np.nonzero(~e1)[0]
-        hg = h[gen]
+        hg = h[gen] if len(gen) < len(h) else h
         exps, qmap = (self._exps_dir, self._qmap_dir) if np.all(hg[:, 3] == 0) else (self._exps, self._qmap)
         Q = map_coefficients(hg, exps, qmap, self._octic)
         ridx, t = roots_in_unit_interval(Q)
-        owner = gen[ridx]
-        hh = h[owner]
-        z = self.zt[0] + self.zt[1] * t
-        rho2 = self.C - self.A * z * z - self.B * z
-        G = rowdot(hh, self._gmap).reshape(-1, 3, 5)
-        y1, y2 = quad_roots(polyval(G[:, 0], t), polyval(G[:, 1], t), polyval(G[:, 2], t))
-        ys = np.stack([y1, y1, y2, y2], axis=-1)
-        xs = np.sqrt(np.maximum(rho2[:, None] - ys**2, 0.0)) * np.array([1.0, -1.0, 1.0, -1.0])
-        Ec = rowdot(hh, self._emap)
-        Ev = polyval(Ec, t)[:, None]
-        F1v = (hh[:, 0] * polyval(self._f1, t))[:, None]
-        F0v = (hh[:, 0] * polyval(self._f0, t))[:, None]
-        res = np.abs(Ev * xs + F1v * ys + F0v)
-        # scale: the size of the terms (absolute coefficients), not their values at the root
-        at = np.abs(t)
-        p1 = np.abs(hh[:, 0])
-        sc = (polyval(np.abs(Ec), at)[:, None] * np.abs(xs) + (p1 * polyval(np.abs(self._f1), at))[:, None]
-              * np.abs(ys) + (p1 * polyval(np.abs(self._f0), at))[:, None] + 1e-300)
+        # Back-substitution: for each root z, y from G's quadratic (both roots), x = +-sqrt(rho^2 - y^2),
+        # screened by the coplanarity E x + F1 y + F0 = 0 (compiled, one root at a time:
+        # catadioptric.solvers._kernels.general_back_substitution).
         # Screening picks the branch (y root, sign of x) that fits the coplanarity best. It must not
         # be strict: x = sqrt(rho^2 - y^2) is ill-conditioned where x is small (targets near the
         # plane of the camera and the axis) and z is a poor coordinate near a vertex, so a
         # genuine root can carry a visible residual. Keep every candidate within a factor of the
-        # root's best (rel <= 1 always: no absolute threshold), every candidate with a small x
+        # root's best (residual relative to the size of its terms, the absolute coefficients at
+        # |t|: rel <= 1 always, no absolute threshold), every candidate with a small x
         # (its residual says little), and every candidate where E vanishes (the coplanarity
         # holds for any x there: one z can hold a solution in the plane x = 0 and a pair off it);
         # the polish and the acceptance test decide.
         # x^2 = rho^2 - y^2 may come out slightly negative for x ~ 0 (a root of the octic known to
-        # about the square root of the rounding where two solutions share one z)
-        ok = (rho2[:, None] - ys**2 >= -_NEAR_ZERO_X * np.maximum(np.abs(rho2)[:, None], ys**2) - 1e-9) & np.isfinite(ys)
-        rel = np.where(ok, res / sc, np.inf)
-        best = rel.min(axis=1, keepdims=True)
-        small_x = xs**2 <= _NEAR_ZERO_X * np.maximum(rho2, 0.0)[:, None]
-        no_e = np.abs(Ev) <= 1e-6 * polyval(np.abs(Ec), at)[:, None]
-        keep = ok & ((rel <= np.maximum(_SCREEN, 10.0 * best)) | small_x | no_e)
-        kk = np.nonzero(keep)
-        owners = [owner[kk[0]]]
-        pts = [np.stack([xs[kk], ys[kk], z[kk[0]]], axis=-1)]
+        # about the square root of the rounding where two solutions share one z): such branches
+        # are kept (x = 0) down to -_NEAR_ZERO_X of max(|rho^2|, y^2)
+        from ._kernels import general_back_substitution
+
+        out_o = np.empty(4 * len(t), dtype=np.intp)
+        out_r = np.empty((4 * len(t), 3))
+        m = general_back_substitution(h, np.ascontiguousarray(gen[ridx]), t, self._gmap, self._emap, self._f1,
+                                      self._f0, self.A, self.B, self.C, self.zt, _SCREEN, _NEAR_ZERO_X, out_o, out_r)
+        owners = [out_o[:m]]
+        pts = [out_r[:m]]
         if np.any(e1):
             o, r = self._e1_candidates(np.nonzero(e1)[0])
             owners.append(o)
@@ -171,7 +157,11 @@ class GeneralSolver(ReflectionSolver):
         plane pair (a cusp of the caustic) the octic holds the three in one cluster of roots, too
         poor to back-substitute; in the plane the solution is a simple root. Near the plane the
         in-plane solutions are starting points for the polish."""
-        idx = np.nonzero(ok & (np.abs(h[:, 0]) <= _NEAR_PLANE * np.abs(h[:, 1:]).max(axis=1)))[0]
+        from ._batch_kernels import near_plane
+
+        idx = np.empty(len(h), dtype=np.intp)
+        idx = idx[:near_plane(np.ascontiguousarray(h, dtype=float), np.ascontiguousarray(ok, dtype=bool), _NEAR_PLANE,
+                              idx)].copy()
         if not len(idx):
             return np.zeros(0, dtype=np.intp), np.zeros((0, 3))
         hp = h[idx].copy()

@@ -14,8 +14,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._numeric import rowdot, unit
-
 __all__ = ["ReflectionSolutions", "ReflectionSolver", "reflect", "monomials", "exponents"]
 
 # after polishing, a reflection point must satisfy the law to this (sine of the angle)
@@ -70,91 +68,6 @@ def monomials(h: np.ndarray, exps: np.ndarray) -> np.ndarray:
             if k:
                 out[j] *= pw[i, k]
     return out.T
-
-
-def adjugate3(M):
-    """Adjugate of batched 3x3 matrices (M @ adj = det I)."""
-    a, b, c = M[:, 0, 0], M[:, 0, 1], M[:, 0, 2]
-    d, e, f = M[:, 1, 0], M[:, 1, 1], M[:, 1, 2]
-    g, h, i = M[:, 2, 0], M[:, 2, 1], M[:, 2, 2]
-    out = np.empty_like(M)
-    out[:, 0, 0] = e * i - f * h
-    out[:, 0, 1] = c * h - b * i
-    out[:, 0, 2] = b * f - c * e
-    out[:, 1, 0] = f * g - d * i
-    out[:, 1, 1] = a * i - c * g
-    out[:, 1, 2] = c * d - a * f
-    out[:, 2, 0] = d * h - e * g
-    out[:, 2, 1] = b * g - a * h
-    out[:, 2, 2] = a * e - b * d
-    return out
-
-
-def newton_polish(r, A, B, C, c, h, sigma, iters=6):
-    """Newton's method on the Lagrange system of Fermat's principle.
-
-    ``grad(|r - c| + sigma phi(r)) + mu grad(Omega) = 0``, ``Omega(r) = 0``, with
-    ``phi = |r - p|`` (w = 1) or ``-s . r`` (w = 0, the limit of ``|r - p| - lambda``);
-    ``sigma = +1`` for a reflected ray toward the target, ``-1`` away from it. The
-    stationary points are exactly the reflection points. Iterates on the entries
-    that still move (quadratic convergence: one or two steps from a polynomial root).
-    """
-    r = r.copy()
-    mu_all = np.zeros(len(r))
-    Hom = np.diag([2.0, 2.0, 2.0 * A])
-    eye = np.eye(3)
-    act = np.arange(len(r))
-    for it in range(iters):
-        if len(act) == 0:
-            break
-        ra, ha, sg = r[act], h[act], sigma[act, None]
-        rc = ra - c
-        lc = np.linalg.norm(rc, axis=-1, keepdims=True)
-        u = rc / lc
-        # toward the target: p - r = (h3 - w r) / w, or s = h3 at infinity; |r - p| = |h3 - w r| / w without
-        # forming p, so that targets of any magnitude (w down to the smallest float) are alike
-        tw = ha[:, :3] - ha[:, 3:] * ra
-        tn = np.linalg.norm(tw, axis=-1, keepdims=True)
-        tn = np.where(tn > 0, tn, 1.0)
-        v = -tw / tn
-        inv_lp = ha[:, 3:] / tn  # 1 / |r - p|, 0 at infinity
-        grad = u + sg * v
-        gO = np.stack([2 * ra[:, 0], 2 * ra[:, 1], 2 * A * ra[:, 2] + B], axis=-1)
-        Om = ra[:, 0] ** 2 + ra[:, 1] ** 2 + A * ra[:, 2] ** 2 + B * ra[:, 2] - C
-        if it == 0:
-            mu_all[act] = -np.sum(grad * gO, axis=-1) / np.sum(gO * gO, axis=-1)
-        mu = mu_all[act]
-        # Schur complement of the bordered Hessian [[M, g], [g^T, 0]], M = Hess f + mu Hess Omega
-        M = (eye - u[:, :, None] * u[:, None, :]) / lc[:, :, None]
-        M = M + (eye - v[:, :, None] * v[:, None, :]) * (inv_lp * sg)[:, :, None]
-        M = M + mu[:, None, None] * Hom
-        f1 = grad + mu[:, None] * gO
-        adj = adjugate3(M)
-        detM = np.einsum("ij,ij->i", M[:, 0, :], adj[:, :, 0])
-        with np.errstate(all="ignore"):
-            adj_g = np.einsum("nij,nj->ni", adj, gO)
-            den = np.einsum("ni,ni->n", gO, adj_g)
-            dmu = (Om * detM - np.einsum("ni,ni->n", adj_g, f1)) / den
-            dr = -np.einsum("nij,nj->ni", adj, f1 + gO * dmu[:, None]) / detM[:, None]
-            delta = np.concatenate([dr, dmu[:, None]], axis=-1)
-            weak = ~np.all(np.isfinite(delta), axis=-1) | (np.abs(detM) <= 1e-12 * np.abs(adj).max(axis=(1, 2)))
-            if np.any(weak):  # M (nearly) singular: solve the bordered system directly
-                J = np.zeros((int(weak.sum()), 4, 4))
-                J[:, :3, :3] = M[weak]
-                J[:, :3, 3] = gO[weak]
-                J[:, 3, :3] = gO[weak]
-                rhs = np.concatenate([f1[weak], Om[weak, None]], axis=-1)
-                good = np.abs(np.linalg.det(J)) > 1e-300
-                sol = np.zeros_like(rhs)
-                if np.any(good):
-                    sol[good] = np.linalg.solve(J[good], -rhs[good][..., None])[..., 0]
-                delta[weak] = sol
-        delta[~np.all(np.isfinite(delta), axis=-1)] = 0.0
-        r[act] = ra + delta[:, :3]
-        mu_all[act] = mu + delta[:, 3]
-        # quadratic convergence: after a step below 1e-8 the error is at rounding level
-        act = act[np.max(np.abs(delta[:, :3]), axis=-1) > 1e-8]
-    return r
 
 
 def rotation_to_yz(v1, v2):
@@ -214,13 +127,17 @@ class ReflectionSolver:
         feet = self._feet
         if not len(feet):
             return np.zeros(0, dtype=np.intp), np.zeros((0, 3))
+        from ._batch_kernels import near_normal
+
         owners, pts = [], []
+        h = np.ascontiguousarray(h, dtype=float)
+        idx = np.empty(len(h), dtype=np.intp)
         for f in feet:
             back = self._c_frame - f
             back = back / np.linalg.norm(back)
-            tg = h[:, :3] - h[:, 3:] * f  # toward the target, any length
-            tn = np.linalg.norm(tg, axis=1)
-            near = np.nonzero((np.linalg.norm(np.cross(tg, back), axis=1) <= _NEAR_NORMAL * tn) & (tn > 0))[0]
+            # the direction toward the target from the foot, h3 - w f (any length), within the sine
+            # _NEAR_NORMAL of the way back to the camera
+            near = idx[:near_normal(h, np.ascontiguousarray(f, dtype=float), back, _NEAR_NORMAL, idx)].copy()
             owners.append(near)
             pts.append(np.broadcast_to(f, (len(near), 3)))
         return np.concatenate(owners), np.concatenate(pts)
@@ -251,76 +168,75 @@ class ReflectionSolver:
 
     def solve_flat(self, targets, w, *, backward=False):
         """Like :meth:`solve`, as flat arrays ``(owner, points, forward)`` without duplicates."""
-        targets = np.asarray(targets, dtype=float)
+        from ._batch_kernels import homogeneous_units
+
+        targets = np.ascontiguousarray(targets, dtype=float).reshape(-1, 3)
         N = len(targets)
         w = np.broadcast_to(np.asarray(w, float), (N,))
         # (p / L, 1) ~ (p, L): a unit homogeneous 4-vector without dividing, so that no magnitude overflows
-        h = unit(np.concatenate([targets, (w > 0)[:, None] * self.L], axis=1))
+        h = np.empty((N, 4))
+        homogeneous_units(targets, np.ascontiguousarray((w > 0) * self.L, dtype=float), h)
         hf, cs, sn = self._frame(h)
         owner, r0 = self._candidates(hf)
         fo, fr = self._feet_candidates(hf)
         owner, r0 = np.concatenate([owner, fo]), np.concatenate([r0, fr])
         owner, r, fwd = self._finish(hf, owner, r0, backward)
         r = rot_z(cs[owner], -sn[owner], r) * self.L
-        return dedupe(owner, r, fwd, self.L)
+        return dedupe(owner, r, fwd, self.L, N)
 
     def _finish(self, h, owner, r0, backward):
-        """Forward/backward assignment, polish and acceptance of candidates (solver frame)."""
-        A, B, C = self.A, self.B, self.C
-        c = self._c_frame
-        nrm0 = np.stack([r0[:, 0], r0[:, 1], A * r0[:, 2] + 0.5 * B], axis=-1)
-        d0 = reflect(r0 - c, nrm0)
-        ho = h[owner]
-        # toward the target: (h3 - w r) is (p - r) w for a point, s for a direction
-        tg0 = ho[:, :3] - ho[:, 3:] * r0
-        sigma = np.where(np.sum(d0 * tg0, axis=-1) >= 0, 1.0, -1.0)
-        if not backward:
-            keep = sigma > 0
-            owner, r0, sigma, ho = owner[keep], r0[keep], sigma[keep], ho[keep]
-        r = newton_polish(r0, A, B, C, c, ho, sigma)
-        nrm = np.stack([r[:, 0], r[:, 1], A * r[:, 2] + 0.5 * B], axis=-1)
-        d = reflect(r - c, nrm)
-        d /= np.linalg.norm(d, axis=-1, keepdims=True)
-        tgt = ho[:, :3] - ho[:, 3:] * r
-        tn = np.linalg.norm(tgt, axis=-1, keepdims=True)
-        tgt = tgt / np.where(tn > 0, tn, 1.0)
-        sine = np.linalg.norm(np.cross(d, tgt), axis=-1)
-        fwd = np.sum(d * tgt, axis=-1) > 0
-        om = r[:, 0] ** 2 + r[:, 1] ** 2 + A * r[:, 2] ** 2 + B * r[:, 2] - C
-        ok = (np.isfinite(sine) & (sine <= ACCEPT) & (np.abs(om) <= 1e-10) & (fwd == (sigma > 0))
-              & (r[:, 2] >= self.zlo - 1e-12) & (r[:, 2] <= self.zhi + 1e-12)
-              & (np.linalg.norm(nrm, axis=-1) > 1e-9) & (tn[:, 0] > 0))
-        return owner[ok], r[ok], fwd[ok]
+        """Forward/backward assignment, polish and acceptance of candidates (solver frame): the
+        side of each candidate's reflected ray (``sigma``: toward the target or away from it; only
+        those toward it unless ``backward``), Newton's method with that side, then the law to
+        ``ACCEPT``, the mirror to 1e-10, the side unchanged and the patch to 1e-12.
+
+        Newton's method runs on the Lagrange system of Fermat's principle,
+        ``grad(|r - c| + sigma phi(r)) + mu grad(Omega) = 0``, ``Omega(r) = 0``, with
+        ``phi = |r - p|`` (w = 1) or ``-s . r`` (w = 0, the limit of ``|r - p| - lambda``): its
+        stationary points are exactly the reflection points. Each step solves the bordered
+        Hessian by the Schur complement of ``M = Hess f + mu Hess Omega`` (the bordered 4x4
+        system directly where M is nearly singular), at most 6 steps, stopping after a step below
+        1e-8 (quadratic convergence: one or two steps from a polynomial root). One candidate
+        at a time, compiled (:func:`catadioptric.solvers._kernels.polish_accept`)."""
+        from ._kernels import polish_accept
+
+        owner = np.ascontiguousarray(owner, dtype=np.intp)
+        out_o = np.empty(len(owner), dtype=np.intp)
+        r = np.empty((len(owner), 3))
+        fwd = np.empty(len(owner), dtype=bool)
+        m = polish_accept(np.ascontiguousarray(h, dtype=float), owner, np.ascontiguousarray(r0, dtype=float),
+                          self.A, self.B, self.C, np.ascontiguousarray(self._c_frame, dtype=float), self.zlo, self.zhi,
+                          bool(backward), 6, ACCEPT, out_o, r, fwd)
+        return out_o[:m], r[:m], fwd[:m]
 
 
-def dedupe(owner, r, fwd, length):
+def dedupe(owner, r, fwd, length, n_owners=None):
     """Sort flat solutions by (owner, z) and drop repeats of one solution of one target (points
-    closer than ``DEDUP`` times ``length``, the mirror's scale in the unit of ``r``)."""
+    closer than ``DEDUP`` times ``length``, the mirror's scale in the unit of ``r``, on the same
+    side); compiled (:func:`catadioptric.solvers._batch_kernels.sorted_unique`)."""
+    from ._batch_kernels import sorted_unique
+
     if len(owner) == 0:
         return owner, r, fwd
-    order = np.lexsort((r[:, 2], owner))
-    owner, r, fwd = owner[order], r[order], fwd[order]
-    scale = float(length)
-    dup = np.zeros(len(owner), dtype=bool)
-    k = 1
-    while True:  # compare with the k-th previous entry of the same owner
-        same = owner[k:] == owner[:-k]
-        if not np.any(same):
-            break
-        close = np.linalg.norm(r[k:] - r[:-k], axis=1) <= DEDUP * scale
-        dup[k:] |= same & close & (fwd[k:] == fwd[:-k])
-        k += 1
-    keep = ~dup
+    owner = np.ascontiguousarray(owner, dtype=np.intp)
+    n_owners = int(owner.max()) + 1 if n_owners is None else int(n_owners)
+    idx = np.empty(len(owner), dtype=np.intp)
+    m = sorted_unique(owner, np.ascontiguousarray(r, dtype=float), np.ascontiguousarray(fwd, dtype=bool), n_owners,
+                      DEDUP * float(length), idx)
+    keep = idx[:m]
     return owner[keep], r[keep], fwd[keep]
 
 
 def rank_within(owner, key):
-    """Order flat entries by (owner, key) and give each its slot (rank) within its owner."""
-    order = np.lexsort((key, owner))
-    o = owner[order]
-    starts = np.r_[0, np.nonzero(np.diff(o))[0] + 1] if len(o) else np.zeros(0, dtype=np.intp)
-    counts = np.diff(np.r_[starts, len(o)])
-    slot = np.arange(len(o)) - np.repeat(starts, counts)
+    """Order flat entries by (owner, key) (stable) and give each its slot (rank) within its owner;
+    compiled (:func:`catadioptric.solvers._batch_kernels.rank_rows`)."""
+    from ._batch_kernels import rank_rows
+
+    owner = np.ascontiguousarray(owner, dtype=np.intp)
+    order = np.empty(len(owner), dtype=np.intp)
+    slot = np.empty(len(owner), dtype=np.intp)
+    if len(owner):
+        rank_rows(owner, np.ascontiguousarray(key, dtype=float), int(owner.max()) + 1, order, slot)
     return order, slot
 
 
@@ -339,16 +255,19 @@ def gather(N, owner, r, fwd, K):
 
 
 def map_coefficients(h, exps, qmap, exact):
-    """Polynomial coefficients of targets ``h (N, n)`` by the fitted map ``(exps, qmap)`` (one matrix
-    product), rebuilt by ``exact(h)`` for the targets where the map's sum cancels to below
+    """Polynomial coefficients of targets ``h (N, n)`` by the fitted map ``(exps, qmap)`` (the
+    monomials of each target times the map, compiled: :func:`catadioptric.solvers._kernels.monomial_map`), rebuilt by ``exact(h)`` for the targets where the map's sum cancels to below
     ``_CANCELLED`` of its terms: near a target for which the polynomial vanishes identically (the
     other focus of an ellipsoid seen from near its first focus, where every mirror point reflects)
     the sum keeps only the absolute rounding of its terms, while the construction from the target
     itself keeps its relative accuracy."""
-    Q = rowdot(monomials(h, exps), qmap)
+    from ._kernels import monomial_map
+
+    h = np.ascontiguousarray(h, dtype=float)
+    Q = np.empty((len(h), qmap.shape[1]))
+    weak = np.empty(len(h), dtype=bool)
     # a bound of the terms' size: a monomial of degree d is at most max|h_i|^d
-    size = np.abs(h).max(axis=1) ** int(exps[0].sum()) * float(np.abs(qmap).max(axis=1).sum())
-    weak = np.abs(Q).max(axis=1) < _CANCELLED * size
+    monomial_map(h, exps, qmap, int(exps[0].sum()), float(np.abs(qmap).max(axis=1).sum()), _CANCELLED, Q, weak)
     if np.any(weak):
         Q[weak] = exact(h[weak])[:, :Q.shape[1]]
     return Q
