@@ -28,8 +28,8 @@ __all__ = ["SignCandidate", "sign_candidates"]
 @dataclass
 class SignCandidate:
     """One sign pattern: ``signs (F,)`` (+1/-1, ``b_f ~ signs_f R a_f``), the refined rotation ``R``
-    with ``cov (3, 3)``, per family ``chi2 (F,)`` and robust ``weights``, and the direction
-    ``cost``: the families' chi-squares, each truncated at 9."""
+    with ``cov (3, 3)``, per family ``chi2 (F,)`` and robust ``weights``, and the robust
+    direction ``cost``."""
 
     signs: np.ndarray
     R: np.ndarray
@@ -39,19 +39,11 @@ class SignCandidate:
     cost: float
 
 
-_CAP = 9.0  # a family's most to a pattern's cost (chi-square units, 2 degrees of freedom: 99 %)
-
-
 def _refined(a, b, Ca, Cb, signs, R0=None) -> SignCandidate:
-    """The pattern's rotation (robust, covariance-weighted) and its cost: each family's chi-square,
-    truncated at ``_CAP`` (MSAC). Not the fit's Cauchy cost, which grows without bound: one family
-    whose direction is far off for every pattern (a model that does not fit it, as the best central
-    approximation of a non-central rig with exact pixels) would otherwise outvote the others by the
-    logarithm of how far off it is."""
     bb = b * signs[:, None]
     fit = refine_rotation(a, bb, Ca, Cb, R0)
     return SignCandidate(signs=signs.astype(float), R=fit.R, cov=fit.cov, chi2=fit.chi2, weights=fit.weights,
-                         cost=float(np.sum(np.minimum(fit.chi2, _CAP))))
+                         cost=fit.cost)
 
 
 def sign_candidates(a, b, cov_a, cov_b, *, signs=None, max_cost_gap: float = 100.0,
