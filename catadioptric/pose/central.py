@@ -26,6 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .rotation import skew
+
 __all__ = ["MeetingRays", "meeting_rays", "CrossingFit", "translation_direction_from_crossings"]
 
 
@@ -104,20 +106,13 @@ def _meeting(n_i, u_i, n_j, u_j):
     return np.where(ok[..., None], x, np.nan)
 
 
-def _skew(v):
-    """``[v]_x (..., 3, 3)``: ``[v]_x w = v x w``."""
-    z = np.zeros(v.shape[:-1])
-    return np.stack([np.stack([z, -v[..., 2], v[..., 1]], -1), np.stack([v[..., 2], z, -v[..., 0]], -1),
-                     np.stack([-v[..., 1], v[..., 0], z], -1)], -2)
-
-
 def _meeting_cov(x, n_i, C_i, n_j, C_j):
     """Covariance ``(K, 3, 3)`` of the unit ray ``x = +-unit(n_i x n_j)`` from those of the two normals:
     ``dx = P (dn_i x n_j + n_i x dn_j) / |n_i x n_j|``, ``P`` the projection normal to ``x``."""
     s = np.linalg.norm(np.cross(n_i, n_j), axis=-1)[:, None, None]
     P = np.eye(3) - x[:, :, None] * x[:, None, :]
-    Ji = -P @ _skew(n_j) / s
-    Jj = P @ _skew(n_i) / s
+    Ji = -P @ skew(n_j) / s
+    Jj = P @ skew(n_i) / s
     return Ji @ C_i @ Ji.transpose(0, 2, 1) + Jj @ C_j @ Jj.transpose(0, 2, 1)
 
 
@@ -224,7 +219,7 @@ def _residual_weights(p, q, cov_p, cov_q, floor):
     ``cov_q``; ``floor``: an angle added in quadrature, for what the fits' covariances leave
     out), and ``ang (K,)``: the rays' own angular standard deviation."""
     s2 = np.sum(np.cross(p, q) ** 2, axis=1)[:, None, None]
-    Sq, Sp = _skew(q), _skew(p)
+    Sq, Sp = skew(q), skew(p)
     W = (Sq.transpose(0, 2, 1) @ cov_p @ Sq + Sp.transpose(0, 2, 1) @ cov_q @ Sp) / s2
     W = W + floor**2 * np.eye(3)
     ang = np.sqrt(np.trace(cov_p, axis1=1, axis2=2) + np.trace(cov_q, axis1=1, axis2=2) + floor**2)
