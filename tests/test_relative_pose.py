@@ -150,6 +150,26 @@ def test_errors_name_their_cause():
         relative_pose(va, vb, ends={0: (np.eye(3)[0], np.eye(3)[0])})
     with pytest.raises(cd.CatadioptricError, match=r"decisive: expected a positive number, got 0.0"):
         relative_pose(va, vb, decisive=0)
+    with pytest.raises(cd.CatadioptricError, match=r"model_error_px: expected a non-negative number of pixels, "
+                                                   r"got -1.0"):
+        relative_pose(va, vb, model_error_px=-1)
+
+
+def test_a_model_error_is_an_error_every_pixel_of_a_line_shares():
+    """``model_error_px`` adds ``(e * rad_per_px)^2 (I - n n')`` to each plane's normal covariance,
+    however many pixels the line has, and the family's direction is no longer trusted beyond it."""
+    from catadioptric.pose.central import _rad_per_px
+    from catadioptric.pose.families import fit_view_families
+
+    va, _, _, _ = _pair("hyperboloid_central")
+    e0, _ = fit_view_families(va)
+    e1, _ = fit_view_families(va, model_error_px=0.5)
+    eps = 0.5 * _rad_per_px(va.cam)
+    for k in e0:
+        n = e0[k].normals
+        added = eps**2 * (np.eye(3) - n[:, :, None] * n[:, None, :])
+        assert np.allclose(e1[k].normal_covs - e0[k].normal_covs, added, rtol=1e-9, atol=1e-20)
+        assert np.trace(e1[k].cov) > np.trace(e0[k].cov) + 0.5 * eps**2 / len(n)
 
 
 def test_without_labels_families_and_lines_are_matched_by_the_geometry():

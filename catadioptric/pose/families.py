@@ -133,7 +133,13 @@ def _fit_noncentral(cam, uv_sets, seed, f_scale, pixel_sigma, max_drops=8):
     raise CatadioptricError("no line of the family fits: " + "; ".join(f"line {k}: {v}" for k, v in dropped.items()))
 
 
-def _fit_central(cam, uv_sets, seed, f_scale, pixel_sigma, directions_only=False):
+def _model_cov(n, model_error_rad):
+    """The covariance ``(3, 3)`` a camera model's own angular error adds to a plane's unit normal ``n``:
+    an error shared by the pixels of a line, which no number of them averages out."""
+    return model_error_rad**2 * (np.eye(3) - np.outer(n, n))
+
+
+def _fit_central(cam, uv_sets, seed, f_scale, pixel_sigma, directions_only=False, model_error_rad=0.0):
     from ..linefit import direction_from_planes, fit_interpretation_plane
 
     planes, keep, dropped = [], [], {}
@@ -147,8 +153,9 @@ def _fit_central(cam, uv_sets, seed, f_scale, pixel_sigma, directions_only=False
     if len(planes) < 2:
         raise CatadioptricError(f"a central camera needs at least 2 lines of a family (one gives only a plane), "
                                 f"got {len(planes)} that fit")
-    s, cov = direction_from_planes([p.normal for p in planes], [p.normal_cov for p in planes])
-    return planes, s, cov, keep, dropped
+    covs = [p.normal_cov + _model_cov(p.normal, model_error_rad) for p in planes]
+    s, cov = direction_from_planes([p.normal for p in planes], covs)
+    return planes, s, cov, keep, dropped, np.array(covs)
 
 
 def _spread(n: int, k: int | None) -> np.ndarray:
@@ -160,7 +167,7 @@ def _spread(n: int, k: int | None) -> np.ndarray:
 
 def fit_view_families(view: ViewLines, *, keys=None, seed=0, f_scale: float = 1.0, pixel_sigma=None,
                       hints: dict | None = None, max_pixels: int | None = None,
-                      exact: bool = True) -> tuple[dict, dict]:
+                      exact: bool = True, model_error_px: float = 0.0) -> tuple[dict, dict]:
     """Fit every family of ``view`` (or those in ``keys``). Returns ``(estimates, failures)``:
     ``{family: FamilyEstimate}`` and ``{family: reason}``. ``hints``: ``{family: direction}``
     in the view's mirror frame (a matched end, e.g. from a vanishing point): the fitted
@@ -169,22 +176,29 @@ def fit_view_families(view: ViewLines, *, keys=None, seed=0, f_scale: float = 1.
     rigs): each line's plane through the rays' centre from its rays' directions alone, the
     family's direction normal to its planes (two lines or more), as a central camera's: far
     cheaper than the exact joint fits, and an approximation by the spread of the rays' origins
-    over the lines' distances, enough to start the two-view refinement."""
+    over the lines' distances, enough to start the two-view refinement. ``model_error_px``: the
+    camera model's own error (pixels; e.g. the rms of a central approximation of a non-central
+    rig), added to each plane's normal covariance as an error its pixels share."""
     fams = view.families()
     est, fail = {}, {}
     central = is_central(view.cam)
     planes_only = central or not exact
     centre = rays_centre(view.cam)
+    model_error_rad = 0.0
+    if model_error_px:
+        from .central import _rad_per_px
+
+        model_error_rad = float(model_error_px) * _rad_per_px(view.cam)
     for key in (fams if keys is None else [k for k in keys if k in fams]):
         idx = fams[key]
         picks = [_spread(len(view.uv[i]), max_pixels) for i in idx]
         sets = [view.uv[i][p] for i, p in zip(idx, picks)]
         try:
             if planes_only:
-                planes, s, cov, keep, dropped = _fit_central(view.cam, sets, seed, f_scale, pixel_sigma,
-                                                             directions_only=not central)
+                planes, s, cov, keep, dropped, ncov = _fit_central(view.cam, sets, seed, f_scale, pixel_sigma,
+                                                                   directions_only=not central,
+                                                                   model_error_rad=model_error_rad)
                 normals = np.array([p.normal for p in planes])
-                ncov = np.array([p.normal_cov for p in planes])
                 rho = rho_sd = np.full(len(keep), np.nan)
                 pl = np.full((len(keep), 6), np.nan)
                 inl = [_full(p.inliers, picks[k], len(view.uv[idx[k]])) for p, k in zip(planes, keep)]

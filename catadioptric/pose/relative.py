@@ -292,7 +292,8 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, s
 
 def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = None, seed=0, f_scale: float = 1.0,
                   pixel_sigma: float | None = None, decisive: float = 25.0, max_pixels: int | None = 40,
-                  min_families: int = 2, max_rotation_deg: float | None = None) -> RelativePose:
+                  min_families: int = 2, max_rotation_deg: float | None = None,
+                  model_error_px: float = 0.0) -> RelativePose:
     """The relative pose ``x_B = R x_A + t`` of two views from the lines they see.
 
     ``view_a``, ``view_b``: :class:`ViewLines`. ``ends``: ``{family: (hint_a, hint_b)}``, for
@@ -304,7 +305,10 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
     used (evenly spaced). ``max_rotation_deg``: a prior on the motion (views a short walk apart,
     frames of a video): candidates that turn by more than this are not considered; the symmetric
     answers of a Manhattan scene (half-turns, quarter-turns) are then ruled out by the prior
-    rather than by the lines, and the notes say so. Raises :class:`CatadioptricError` naming the
+    rather than by the lines, and the notes say so. ``model_error_px``: the camera model's own
+    error in pixels (e.g. the rms of the best central approximation of a non-central rig): an
+    error the pixels of a line share, added to the planes' covariances so that a model that does
+    not fit exact pixels is not trusted beyond its own precision. Raises :class:`CatadioptricError` naming the
     cause when fewer than ``min_families`` families are seen in both views, or when no candidate
     is within ``max_rotation_deg``.
     """
@@ -313,7 +317,7 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
     # every linear solve here is small: a multithreaded BLAS only fights other work for the cores
     with threadpool_limits(1):
         return _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families,
-                              max_rotation_deg)
+                              max_rotation_deg, model_error_px)
 
 
 def _within_prior(cands, max_rotation_deg, what):
@@ -329,7 +333,7 @@ def _within_prior(cands, max_rotation_deg, what):
 
 
 def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families,
-                   max_rotation_deg=None):
+                   max_rotation_deg=None, model_error_px=0.0):
     if not isinstance(view_a, ViewLines) or not isinstance(view_b, ViewLines):
         raise CatadioptricError(f"view_a, view_b: expected ViewLines, got {type(view_a).__name__} and "
                                 f"{type(view_b).__name__}")
@@ -339,6 +343,9 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
         pixel_sigma = as_scalar(pixel_sigma, "pixel_sigma", positive=True)
     if max_rotation_deg is not None:
         max_rotation_deg = as_scalar(max_rotation_deg, "max_rotation_deg", positive=True)
+    model_error_px = as_scalar(model_error_px, "model_error_px")
+    if model_error_px < 0:
+        raise CatadioptricError(f"model_error_px: expected a non-negative number of pixels, got {model_error_px}")
     central = is_central(view_a.cam)
     if central != is_central(view_b.cam):
         raise CatadioptricError("view_a, view_b: expected two central or two non-central cameras, got one of each")
@@ -347,7 +354,7 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
             raise CatadioptricError("ends: the ends of families can only be given for families matched across "
                                     "the views; these views' lines carry no line_id (nothing is matched)")
         return _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families,
-                          max_rotation_deg)
+                          max_rotation_deg, model_error_px)
     fa, fb = view_a.families(), view_b.families()
     common = [k for k in fa if k in fb]
     if ends is not None:
@@ -359,9 +366,9 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
     hints_b = {k: ends[k][1] for k in common} if ends is not None else None
     # each view: planes of its lines and its families' directions (stages 1 and the refinement's start)
     ea, fail_a = fit_view_families(view_a, keys=common, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
-                                   hints=hints_a, max_pixels=max_pixels, exact=False)
+                                   hints=hints_a, max_pixels=max_pixels, exact=False, model_error_px=model_error_px)
     eb, fail_b = fit_view_families(view_b, keys=common, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
-                                   hints=hints_b, max_pixels=max_pixels, exact=False)
+                                   hints=hints_b, max_pixels=max_pixels, exact=False, model_error_px=model_error_px)
     notes = [f"family {k} not used in view A: {v}" for k, v in fail_a.items()]
     notes += [f"family {k} not used in view B: {v}" for k, v in fail_b.items()]
     keys = [k for k in common if k in ea and k in eb]
@@ -451,7 +458,8 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
                         estimates=(ea, eb), notes=notes)
 
 
-def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families, max_rotation_deg):
+def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families, max_rotation_deg,
+               model_error_px=0.0):
     """Relative pose when nothing is matched across the views (lines from each image alone): the
     family assignments a rotation allows (:func:`~catadioptric.pose.matching.family_matches`), for
     each the lines matched by where they meet (:func:`~catadioptric.pose.matching.match_lines`),
@@ -460,9 +468,9 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
     from .matching import family_matches, match_lines
 
     ea, fail_a = fit_view_families(view_a, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
-                                   max_pixels=max_pixels, exact=False)
+                                   max_pixels=max_pixels, exact=False, model_error_px=model_error_px)
     eb, fail_b = fit_view_families(view_b, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
-                                   max_pixels=max_pixels, exact=False)
+                                   max_pixels=max_pixels, exact=False, model_error_px=model_error_px)
     if len(ea) < min_families or len(eb) < min_families:
         raise CatadioptricError(f"views: expected at least {min_families} families of two or more lines in each "
                                 f"view, got {len(ea)} in A and {len(eb)} in B")
@@ -493,7 +501,7 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
     vb = ViewLines(view_b.cam, view_b.uv, fam_b, b_id)
     ends = {a: (ea[a].direction, eb[b].direction * sign) for b, (a, sign) in best.mapping.items()}
     res = _relative_pose(va, vb, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families,
-                         max_rotation_deg)
+                         max_rotation_deg, model_error_px)
     res.candidates = [Candidate({str(b): (str(a), int(s)) for b, (a, s) in m.mapping.items()}, m.R,
                                 None if lm.t is None else lm.t, score, m.cost, None, lm) for score, m, lm in scored]
     res.candidates[0] = Candidate(res.candidates[0].signs, res.R, res.t, best_score, best.cost, res.cov, lines)

@@ -29,12 +29,21 @@ _UNIFIED_CACHE: dict = {}
 def central_approximation(cam):
     """The best central approximation of a rig (unified model with tilt), fitted once per rig;
     a central rig's own exact unified model."""
+    return _central_fit(cam)[0]
+
+
+def _central_fit(cam):
+    """``(unified camera, its rms error in pixels)``: the best central approximation of the rig and
+    how far it is from the exact pixels (0 for a central rig)."""
     from ..unified import fit_unified, unified_from_central
 
     key = json.dumps(cam.to_dict(), sort_keys=True)
     if key not in _UNIFIED_CACHE:
-        _UNIFIED_CACHE[key] = unified_from_central(cam) if cam.is_central else fit_unified(cam, tilt=True,
-                                                                                            step=16).camera
+        if cam.is_central:
+            _UNIFIED_CACHE[key] = (unified_from_central(cam), 0.0)
+        else:
+            fit = fit_unified(cam, tilt=True, step=16)
+            _UNIFIED_CACHE[key] = (fit.camera, float(fit.rms_px))
     return _UNIFIED_CACHE[key]
 
 
@@ -126,6 +135,8 @@ def _evaluate_pair(dataset, names, noise_levels, draws, seed, pixels, min_pixels
     fam_dirs = {int(f["index"]): np.asarray(f["direction_W"], float) for f in va["families"]}
     hints = {f: (pa.directions_to_mirror(fam_dirs[f]), pb.directions_to_mirror(fam_dirs[f])) for f in common}
     uni = [central_approximation(c) for c in cams] if central else None
+    # the approximation's own error: an error every pixel of a line shares (pose.relative_pose)
+    model_px = max(_central_fit(c)[1] for c in cams) if central else 0.0
     centres = [rays_centre(c) for c in cams]
     uni_centres = [np.asarray(u.viewpoint, float) for u in uni] if central else None
     out = {"views": list(names), "R_gt": R_gt, "t_gt": t_gt, "baseline_m": float(np.linalg.norm(t_gt)),
@@ -144,7 +155,8 @@ def _evaluate_pair(dataset, names, noise_levels, draws, seed, pixels, min_pixels
                 t0 = time.perf_counter()
                 try:
                     res = relative_pose(views[0], views[1], ends=hints if ends == "given" else None, seed=k,
-                                        decisive=decisive, max_pixels=max_pixels)
+                                        decisive=decisive, max_pixels=max_pixels,
+                                        model_error_px=model_px if label == "central" else 0.0)
                 except CatadioptricError as exc:
                     msg = str(exc)
                     short = [b.short for b in base]
