@@ -115,6 +115,17 @@ def test_matched_ends_fix_the_signs():
     assert rotation_angle_deg(res.R @ R_gt.T) < 2.0
 
 
+def test_the_noise_comes_out_at_the_noise_added():
+    """The two-view refinement estimates the pixel noise from its inliers (1 px added): a pixel's
+    distance to its line's image is a 1-D error; read as a 2-D one, the inlier threshold cut at
+    2 sigma and the noise (and with it the covariance) came out 12 % low."""
+    va, vb, R_gt, _ = _pair("hyperboloid", noise=1.0)
+    res = relative_pose(va, vb)
+    fit = res.candidates[0].fit
+    assert 0.96 < res.sigma_px < 1.04
+    assert np.mean(np.r_[fit.inliers_a, fit.inliers_b]) > 0.99
+
+
 def test_a_badly_fitted_family_cannot_flip_the_answer():
     """A fourth family whose lines in view B are really another family's (40+ degrees off): the
     robust weights keep it from pulling the rotation."""

@@ -7,7 +7,7 @@ import scipy.sparse as sp
 from scipy.optimize import least_squares
 
 from .._checks import CatadioptricError
-from ._common import _RAYLEIGH_MEDIAN, _tangent_basis, _unit
+from ._common import _HALF_NORMAL_MEDIAN, _tangent_basis, _unit
 from .distances import _closest_depths, _depth_refine
 from .jacobian import project_with_jacobian
 from .linear import _ray_frame
@@ -223,7 +223,7 @@ def _solve_family(cam, uv_all, o, d, owner, n_lines, s0, q0, lam0, *, loss, f_sc
         thr = inlier_threshold
         if thr is None:
             d_in = dist[solved & np.isfinite(dist)]
-            sig = float(np.median(d_in) / _RAYLEIGH_MEDIAN) if len(d_in) else f_scale
+            sig = float(np.median(d_in) / _HALF_NORMAL_MEDIAN) if len(d_in) else f_scale
             thr = 3.5 * pixel_sigma if pixel_sigma is not None else 3.0 * max(f_scale, 1.2 * sig)
         new = dist <= thr
         for i in range(n_lines):

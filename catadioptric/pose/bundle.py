@@ -25,12 +25,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._checks import CatadioptricError
+from ..linefit._common import _HALF_NORMAL_MEDIAN
 from ..linefit.jacobian import project_with_jacobian
 from .rotation import exp_rotation, skew
 
 __all__ = ["TwoViewFit", "refine_two_view"]
 
-_RAYLEIGH_MEDIAN = np.sqrt(2.0 * np.log(2.0))  # median of |e| for a 2-D Gaussian of unit sigma
 _MU_MAX = 1e3  # depths beyond 89.94 degrees from a line's perpendicular are at its vanishing points
 
 
@@ -100,6 +100,11 @@ class _Problem:
         self.alpha0 = np.arctan2(np.sum(foot * e2l, 1), np.sum(foot * e1l, 1))
         self.rho0 = ntt / dist
         self.rho_min = 1e-6
+        # nothing the mirror sees lies within it: a line's distance from c_A is at least twice the
+        # mirror's size (rho <= k / d_min). A line seen in one view only is barely placed by a
+        # near-central rig; unbounded, its distance can fall inside the mirror, where its points
+        # reflect nowhere, their pixels lose their gradient and the line stays lost
+        self.d_min = 2.0 * max(cam_a.mirror.scale, cam_b.mirror.scale)
         f = self.fam[owner]
         self.cols = np.empty((self.N, 10), dtype=np.int64)
         self.cols[:, :6] = np.arange(6)
@@ -113,7 +118,7 @@ class _Problem:
         y = np.zeros(self.ny)
         y[5] = self.sigma0
         y[6 + 2 * self.F::2] = self.alpha0
-        y[7 + 2 * self.F::2] = np.maximum(self.rho0, 2 * self.rho_min)
+        y[7 + 2 * self.F::2] = np.clip(self.rho0, 2 * self.rho_min, np.exp(self.sigma0) / self.d_min)
         return y
 
     def parts(self, y):
@@ -208,7 +213,7 @@ class _Problem:
         # observed scale would run off along its flat valley
         y2[5] = np.clip(y2[5], np.log(1e-3), np.log(1e4))
         rho = y2[7 + 2 * self.F::2]
-        y2[7 + 2 * self.F::2] = np.maximum(rho, self.rho_min)
+        y2[7 + 2 * self.F::2] = np.clip(rho, self.rho_min, np.exp(y2[5]) / self.d_min)
         return R2, y2, mu2
 
     def jacobian_wt(self, R, y) -> np.ndarray:
@@ -359,7 +364,7 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     if pixel_sigma is not None:
         thr = inlier_sigmas * pixel_sigma
     else:
-        sig = float(np.median(dist[fin]) / _RAYLEIGH_MEDIAN) if fin.any() else sigma_cost
+        sig = float(np.median(dist[fin]) / _HALF_NORMAL_MEDIAN) if fin.any() else sigma_cost
         thr = inlier_sigmas * max(sig, 1e-9 * sigma_cost)
     inl = fin & (dist <= thr)
     if inl[view == 1].sum() < 3:
