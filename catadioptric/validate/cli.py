@@ -42,7 +42,7 @@ def _relative_pose(args) -> int:
         views = ds.names[:2]
     else:
         views = args.views
-    if args.min_pixels > args.max_pixels:
+    if args.max_pixels is not None and args.min_pixels > args.max_pixels:
         raise CatadioptricError(f"--min-pixels: expected at most --max-pixels ({args.max_pixels}), got "
                                 f"{args.min_pixels}")
     res = rp.evaluate_pair(ds, views, noise_levels=args.noise, draws=args.draws, seed=args.seed,
@@ -142,8 +142,9 @@ def register(sub) -> None:
                         "ridge of the label band")
     r.add_argument("--min-pixels", type=positive_int, default=30,
                    help="lines with fewer pixels are not used (default 30)")
-    r.add_argument("--max-pixels", type=positive_int, default=60,
-                   help="pixels per line and view used, evenly spread (default 60)")
+    r.add_argument("--max-pixels", type=positive_int, default=None,
+                   help="at most this many pixels per line and view, evenly spread (default: every pixel, as "
+                        "the benchmark)")
     r.add_argument("--ends", choices=["unknown", "given"], default="unknown",
                    help="which end of each family is which: searched (default) or given (matched vanishing "
                         "points from the ground truth, the paper's assumption)")

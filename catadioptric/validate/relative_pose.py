@@ -91,7 +91,7 @@ def _draw_pixels(base, rng, noise_px, max_pixels):
 
 
 def evaluate_pair(dataset, names, *, noise_levels=(2.0,), draws: int = 1, seed=0, pixels: str = "curve",
-                  min_pixels: int = 30, max_pixels: int | None = 60, ends: str = "unknown",
+                  min_pixels: int = 30, max_pixels: int | None = None, ends: str = "unknown",
                   central: bool = True, decisive: float = 25.0) -> dict:
     """Every noise level and draw of the view pair ``names = (A, B)`` of ``dataset`` (a folder or a
     :class:`catadioptric.Dataset`). Returns the report dict (docs/relative_pose.md, "Report")."""
