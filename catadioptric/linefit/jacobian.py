@@ -8,7 +8,8 @@ from ..cameras import CatadioptricCamera
 
 
 # --------------------------------------------------------------------------- projection with derivatives
-def project_with_jacobian(cam: CatadioptricCamera, points, uv_ref, *, jacobian: bool = True):
+def project_with_jacobian(cam: CatadioptricCamera, points, uv_ref, *, jacobian: bool = True,
+                          mirror_points: bool = False):
     """The image of each point nearest a reference pixel, with its derivative.
 
     ``points (N, 3)`` in M, ``uv_ref (N, 2)``. Returns ``uv (N, 2)``, ``G (N, 2, 3)`` (d uv / d point)
@@ -21,7 +22,10 @@ def project_with_jacobian(cam: CatadioptricCamera, points, uv_ref, *, jacobian: 
     ``|r - c| + |r - p|`` stationary on the mirror, so ``(r, mu)`` solves
     ``w + u + mu grad Omega = 0``, ``Omega(r) = 0`` (``w``, ``u`` unit vectors from ``c`` and
     from ``p`` to ``r``); differentiating that system in ``p`` gives ``dr/dp``, and the
-    pinhole gives ``d uv / dr``. With ``jacobian=False``, ``G`` is not computed (NaN).
+    pinhole gives ``d uv / dr``. With ``jacobian=False``, ``G`` is not computed (NaN); with
+    ``mirror_points=True`` the reflection points ``r (N, 3)`` used (NaN where none) are returned
+    fourth, for :func:`image_jacobian` later (an optimiser that only needs ``G`` at the steps it
+    accepts).
     """
     P = as_float_array(points, "points", 3, finite=False).reshape(-1, 3)
     ref = as_float_array(uv_ref, "uv_ref", 2).reshape(-1, 2)
@@ -31,8 +35,9 @@ def project_with_jacobian(cam: CatadioptricCamera, points, uv_ref, *, jacobian: 
     uv = np.full((N, 2), np.nan)
     G = np.full((N, 2, 3), np.nan)
     vis = np.zeros(N, dtype=bool)
+    r_all = np.full((N, 3), np.nan)
     if N == 0:
-        return uv, G, vis
+        return (uv, G, vis, r_all) if mirror_points else (uv, G, vis)
     finite = np.all(np.isfinite(P), axis=-1)
     pr = cam.project(np.where(finite[:, None], P, 0.0))
     d2 = np.sum((pr.uv - ref[:, None, :]) ** 2, axis=-1)
@@ -44,10 +49,25 @@ def project_with_jacobian(cam: CatadioptricCamera, points, uv_ref, *, jacobian: 
     ok = np.isfinite(key[idx, k]) & finite
     uv[ok] = pr.uv[idx[ok], k[ok]]
     vis[ok] = pr.valid[idx[ok], k[ok]]
+    r_all[ok] = pr.mirror_points[idx[ok], k[ok]]
     if jacobian and np.any(ok):
-        r = pr.mirror_points[idx[ok], k[ok]]
-        G[ok] = _uv_jacobian(cam, r, P[ok])
-    return uv, G, vis
+        G[ok] = _uv_jacobian(cam, r_all[ok], P[ok])
+    return (uv, G, vis, r_all) if mirror_points else (uv, G, vis)
+
+
+def image_jacobian(cam: CatadioptricCamera, mirror_points, points) -> np.ndarray:
+    """``d uv / d point (N, 2, 3)`` of points ``(N, 3)`` (M) imaged through reflection points
+    ``mirror_points (N, 3)`` (as returned by :func:`project_with_jacobian`); NaN rows where either
+    is NaN."""
+    r = np.asarray(mirror_points, dtype=float).reshape(-1, 3)
+    P = np.asarray(points, dtype=float).reshape(-1, 3)
+    if len(r) != len(P):
+        raise CatadioptricError(f"mirror_points: expected one per point ({len(P)}), got {len(r)}")
+    G = np.full((len(P), 2, 3), np.nan)
+    ok = np.all(np.isfinite(r), axis=1) & np.all(np.isfinite(P), axis=1)
+    if np.any(ok):
+        G[ok] = _uv_jacobian(cam, r[ok], P[ok])
+    return G
 
 
 def _uv_jacobian(cam: CatadioptricCamera, r, p):

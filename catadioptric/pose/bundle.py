@@ -26,7 +26,8 @@ import numpy as np
 
 from .._checks import CatadioptricError
 from ..linefit._common import _HALF_NORMAL_MEDIAN
-from ..linefit.jacobian import project_with_jacobian
+from ..linefit.jacobian import image_jacobian, project_with_jacobian
+from ._kernels import reduced_normal_equations
 from .rotation import exp_rotation, skew
 
 __all__ = ["TwoViewFit", "refine_two_view"]
@@ -148,23 +149,43 @@ class _Problem:
     def evaluate(self, R, y, mu, jac=True):
         """Residuals ``e (N, 2)`` (NaN where a point has no image), and if ``jac`` the local
         Jacobian ``A (N, 2, 10)`` (columns ``self.cols``) and the depth column ``b (N, 2)``."""
+        e, state = self.residuals(R, y, mu)
+        if not jac:
+            return e, None, None
+        A, b = self.jacobian(R, y, mu, state)
+        return e, A, b
+
+    def residuals(self, R, y, mu):
+        """Residuals ``e (N, 2)`` and the state :meth:`jacobian` needs (the points and their
+        reflection points): a trial step is judged by its residuals alone."""
         s, nv, al, rho, u, that, ntv, k = self.parts(y)
         f, l = self.fam[self.owner], self.owner
         V = (u[l] + mu[:, None] * s[f]) / rho[l, None]  # P - c_A = k V
-        P = self.ca + k * V
         inb = self.view == 1
-        X = P.copy()
+        X = self.ca + k * V
         X[inb] = k * (V[inb] @ R.T + that) + self.cb
         e = np.full((self.N, 2), np.nan)
+        r = np.full((self.N, 3), np.nan)
+        for v in (0, 1):
+            m = self.view == v
+            if m.any():
+                uvp, _, _, r[m] = project_with_jacobian(self.cams[v], X[m], self.uv[m], jacobian=False,
+                                                        mirror_points=True)
+                e[m] = uvp - self.uv[m]
+        return e, (X, r, V)
+
+    def jacobian(self, R, y, mu, state):
+        """The local Jacobian ``A (N, 2, 10)`` and depth column ``b (N, 2)`` at the state of
+        :meth:`residuals` for the same ``R, y, mu``."""
+        X, r, V = state
+        s, nv, al, rho, u, that, ntv, k = self.parts(y)
+        f, l = self.fam[self.owner], self.owner
+        inb = self.view == 1
         G = np.full((self.N, 2, 3), np.nan)
         for v in (0, 1):
             m = self.view == v
             if m.any():
-                uvp, Gv, _ = project_with_jacobian(self.cams[v], X[m], self.uv[m], jacobian=jac)
-                e[m] = uvp - self.uv[m]
-                G[m] = Gv
-        if not jac:
-            return e, None, None
+                G[m] = image_jacobian(self.cams[v], r[m], X[m])
         rj = rho[l]
         e1f, e2f = self.e1[f], self.e2[f]
         sf = s[f]
@@ -193,10 +214,10 @@ class _Problem:
                              axis=0)  # (2, 3)
             A[inb, :, 3:5] = k * np.einsum("nij,kj->nik", G[inb], dthat)
             A[inb, :, 5] += k * np.einsum("nij,j->ni", G[inb], that)  # the baseline scales with sigma too
-        bad = ~np.isfinite(e).all(1) | ~np.isfinite(A).all((1, 2)) | ~np.isfinite(b).all(1)
+        bad = ~np.isfinite(r).all(1) | ~np.isfinite(A).all((1, 2)) | ~np.isfinite(b).all(1)
         A[bad] = 0.0
         b[bad] = 0.0
-        return e, A, b
+        return A, b
 
     def apply(self, R, y, mu, dy, dmu):
         """The state after a step (``dy[:3]`` rotates ``R`` on the left; the rest adds)."""
@@ -240,20 +261,15 @@ def _weights(e, sigma, c2, robust, mask):
 
 
 def _normal_equations(pb, A, b, e, w, lam):
-    """Schur complement over the depths: ``S dy = -g`` and the depth back-substitution terms."""
-    wA = A * w[:, None, None]
-    Hmm = np.sum(b * b, axis=1) * w
-    Hmm_d = Hmm * (1.0 + lam) + 1e-300
-    Hym = np.einsum("nki,nk->ni", wA, b)
-    gy = np.einsum("nki,nk->ni", wA, np.nan_to_num(e))
-    gm = np.sum(b * np.nan_to_num(e), axis=1) * w
-    Sloc = np.einsum("nki,nkj->nij", wA, A) - Hym[:, :, None] * Hym[:, None, :] / Hmm_d[:, None, None]
-    rloc = gy - Hym * (gm / Hmm_d)[:, None]
-    ny = pb.ny
-    idx = (pb.cols[:, :, None] * ny + pb.cols[:, None, :]).reshape(-1)
-    S = np.bincount(idx, weights=Sloc.reshape(-1), minlength=ny * ny).reshape(ny, ny)
-    g = np.bincount(pb.cols.reshape(-1), weights=rloc.reshape(-1), minlength=ny)
-    return S, g, Hym, gm, Hmm_d
+    """Schur complement over the depths: ``S dy = -g`` and the depth back-substitution terms.
+
+    With ``W`` the weights, per pixel ``Hmm = w b'b`` (damped: ``Hmm_d = Hmm (1 + lam)``),
+    ``Hym = w A'b``, ``gm = w b'e``; its block ``w A'A - Hym Hym' / Hmm_d`` of ``S`` and
+    ``w A'e - Hym gm / Hmm_d`` of ``g`` go to its columns ``pb.cols``
+    (:func:`catadioptric.pose._kernels.reduced_normal_equations`, one compiled pass)."""
+    return reduced_normal_equations(np.ascontiguousarray(A, dtype=float), np.ascontiguousarray(b, dtype=float),
+                                    np.ascontiguousarray(e, dtype=float), np.ascontiguousarray(w, dtype=float),
+                                    float(lam), pb.cols, int(pb.ny))
 
 
 def _solve_step(pb, A, b, e, w, lam):
@@ -297,7 +313,7 @@ def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter):
         for _ in range(12):
             dy, dmu = _solve_step(pb, A, b, e, w, lam)
             R2, y2, mu2 = pb.apply(R, y, mu, dy, dmu)
-            e2, A2, b2 = pb.evaluate(R2, y2, mu2)
+            e2, state2 = pb.residuals(R2, y2, mu2)
             _, cost2 = _weights(e2, sigma, c2, robust, mask)
             if cost2 <= cost:
                 improved = True
@@ -306,7 +322,8 @@ def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter):
         if not improved:
             break
         rel = (cost - cost2) / max(cost, 1e-300)
-        R, y, mu, e, A, b = R2, y2, mu2, e2, A2, b2
+        R, y, mu, e = R2, y2, mu2, e2
+        A, b = pb.jacobian(R, y, mu, state2)
         lam = max(lam / 10.0, 1e-15)
         w, cost = _weights(e, sigma, c2, robust, mask)
         if rel < 1e-10:
