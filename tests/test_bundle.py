@@ -70,3 +70,30 @@ def test_non_finite_residuals_count_as_zero():
     S1, g1, *_ = reduced_normal_equations(A, b, e2, w, 0.0, cols, ny)
     S0, g0, *_ = reduced_normal_equations(A, b, e0, w, 0.0, cols, ny)
     assert np.array_equal(S1, S0) and np.array_equal(g1, g0)
+
+
+def test_lines_stay_outside_the_mirror():
+    """A line's distance from c_A never falls below twice the mirror's size, at the start or after
+    any step: a line started (or pushed) inside the mirror would have points that reflect nowhere
+    and pixels without a gradient."""
+    from catadioptric.pose.bundle import _Problem
+    from catadioptric.rigs import preset
+
+    cam = preset("hyperboloid")
+    c = np.zeros(3)
+    s = np.array([[1.0, 0.0, 0.0]])
+    points = np.array([[0.0, 0.01, 0.0], [0.0, 4.0, 1.0]])  # 1 cm from the centre, and 4 m away
+    uv = np.full((6, 2), 100.0)
+    owner = np.array([0, 0, 0, 1, 1, 1])
+    view = np.array([0, 0, 1, 0, 1, 1])
+    pb = _Problem(cam, cam, s, points, [0, 0], uv, owner, view, (c, c), np.eye(3), np.array([3.0, 0.0, 0.0]))
+    d_min = 2.0 * cam.mirror.scale
+    y = pb.start()
+    dist = lambda y: np.exp(y[5]) / y[7 + 2 * pb.F::2]  # each line's distance from c_A
+    assert np.all(dist(y) >= d_min * (1 - 1e-12))
+    assert abs(dist(y)[1] - np.hypot(4.0, 1.0)) < 1e-9  # a line outside is untouched
+    dy = np.zeros(pb.ny)
+    dy[7 + 2 * pb.F::2] = 1e6  # a step that would bring both lines to the centre
+    _, y2, _ = pb.apply(np.eye(3), y, np.zeros(len(uv)), dy, np.zeros(len(uv)))
+    assert np.all(dist(y2) >= d_min * (1 - 1e-12))
+    assert np.allclose(dist(y2), d_min)
