@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .central import _costs, _meeting, _rad_per_px, _sides
+from .central import _costs, _meeting, _rad_per_px, _residuals2, _sides
 from .rotation import refine_rotation, rotation_angle_deg, rotation_from_directions
 
 __all__ = ["FamilyMatch", "family_matches", "LineMatch", "match_lines"]
@@ -193,7 +193,7 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
 
     def per_crossing_cost(Ts):
         cost, inl = _costs(A, p_, q_, Ts, thr, c2, min_parallax=3.0 * thr)  # per candidate pair
-        r2 = (Ts @ A.T) ** 2 / (thr / 3.0) ** 2
+        r2 = _residuals2(A, Ts, thr)
         r2 = np.where(inl, r2, c2)
         best = np.full((len(Ts), len(xa)), c2)
         for k in range(len(Ts)):
@@ -246,7 +246,7 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
         Av = np.cross(P, Q)
         Av /= np.maximum(np.linalg.norm(Av, axis=1), 1e-300)[:, None]
         _, inl = _costs(Av, P, Q, t[None], thr, c2, min_parallax=3.0 * thr)
-        r2 = (Av @ t) ** 2 / (thr / 3.0) ** 2
+        r2 = _residuals2(Av, t[None], thr)[0]
         ok = inl[0]
         n_ok = int(ok.sum())
         cost_v = float(np.sum(r2[ok]) + c2 * (len(xa) - n_ok))
