@@ -237,6 +237,35 @@ class _Problem:
         y2[7 + 2 * self.F::2] = np.clip(rho, self.rho_min, np.exp(y2[5]) / self.d_min)
         return R2, y2, mu2
 
+    def pushed_bounds(self, y, dy):
+        """The bounds of :meth:`apply` that the step ``dy`` pushes against: ``(upper (L,), lower
+        (L,), scale)``, lines at their nearest distance (``rho~ = exp(sigma) / d_min``) moved
+        nearer, lines at ``rho_min`` moved further, the scale at a limit moved beyond it."""
+        i_rho = 7 + 2 * self.F + 2 * np.arange(self.L)
+        rho, d_rho = y[i_rho], dy[i_rho]
+        upper = (rho >= np.exp(y[5]) / self.d_min * (1 - 1e-9)) & (d_rho - rho * dy[5] > 0)
+        lower = (rho <= self.rho_min * (1 + 1e-9)) & (d_rho < 0)
+        scale = bool((y[5] <= np.log(1e-3) + 1e-12 and dy[5] < 0) or (y[5] >= np.log(1e4) - 1e-12 and dy[5] > 0))
+        return upper, lower, scale
+
+    def bound_chart(self, y, held):
+        """The chart of the steps that keep the ``held`` bounds (:meth:`pushed_bounds`' form):
+        ``T (ny, ny)`` with ``dy = T dz``, or None when nothing is held. A line at its nearest
+        distance follows the scale (``d rho~ = rho~ d sigma``); a line at ``rho_min`` and a scale
+        at its limit stay."""
+        upper, lower, scale = held
+        if not (upper.any() or lower.any() or scale):
+            return None
+        i_rho = 7 + 2 * self.F + 2 * np.arange(self.L)
+        T = np.eye(self.ny)
+        fixed = i_rho[upper | lower]
+        T[fixed, fixed] = 0.0
+        if scale:
+            T[5, 5] = 0.0
+        else:
+            T[i_rho[upper], 5] = y[i_rho[upper]]
+        return T
+
     def jacobian_wt(self, R, y) -> np.ndarray:
         """d(w, t) / d(w, tau, sigma) ``(6, 6)`` for the covariance of ``(w, t)``."""
         that, ntv, k = self.parts(y)[5:]
@@ -272,17 +301,41 @@ def _normal_equations(pb, A, b, e, w, lam):
                                     float(lam), pb.cols, int(pb.ny))
 
 
-def _solve_step(pb, A, b, e, w, lam):
-    S, g, Hym, gm, Hmm_d = _normal_equations(pb, A, b, e, w, lam)
+def _damped_solve(S, g, lam):
+    """``dy`` of ``(S + lam diag) dy = -g``, Jacobi-scaled (unknowns of very different units:
+    radians, metres, inverse distances); an unknown with no information does not move."""
     d = np.diag(S).copy()
-    # Jacobi-scaled (unknowns of very different units: radians, metres, inverse distances) and damped
     sc = np.sqrt(np.maximum(d, 1e-12 * max(d.max(), 1e-300)))
     S_n = S / np.outer(sc, sc) + np.eye(len(d)) * (lam + 1e-15)
     try:
-        dy = -np.linalg.solve(S_n, g / sc) / sc
+        return -np.linalg.solve(S_n, g / sc) / sc
     except np.linalg.LinAlgError:
-        dy = -np.linalg.lstsq(S_n, g / sc, rcond=None)[0] / sc
+        return -np.linalg.lstsq(S_n, g / sc, rcond=None)[0] / sc
+
+
+def _solve_step(pb, A, b, e, w, lam, y, mu):
+    """The damped Gauss-Newton step ``(dy, dmu)``. Unknowns that the step pushes against their
+    bounds (:meth:`_Problem.pushed_bounds`; a depth at ``+-_MU_MAX`` pushed outwards) are held on
+    them and the step solved again, until it pushes against no other: moved across and clipped
+    back by :meth:`_Problem.apply`, they would leave the rest of the step inconsistent, and
+    Levenberg-Marquardt would crawl."""
+    S, g, Hym, gm, Hmm_d = _normal_equations(pb, A, b, e, w, lam)
+    dy = _damped_solve(S, g, lam)
     dmu = -(gm + np.sum(Hym * dy[pb.cols], axis=1)) / Hmm_d
+    held = (np.zeros(pb.L, dtype=bool), np.zeros(pb.L, dtype=bool), False)
+    stuck = np.zeros(len(mu), dtype=bool)
+    for _ in range(8):
+        upper, lower, scale = pb.pushed_bounds(y, dy)
+        held2 = (held[0] | upper, held[1] | lower, held[2] or scale)
+        stuck2 = stuck | ((np.abs(mu) >= _MU_MAX * (1 - 1e-12)) & (dmu * mu > 0))
+        if all(np.array_equal(p, q) for p, q in zip(held, held2)) and np.array_equal(stuck, stuck2):
+            break
+        if not np.array_equal(stuck, stuck2):  # a depth held: no depth column for its pixel
+            S, g, Hym, gm, Hmm_d = _normal_equations(pb, A, np.where(stuck2[:, None], 0.0, b), e, w, lam)
+        held, stuck = held2, stuck2
+        T = pb.bound_chart(y, held)
+        dy = _damped_solve(S, g, lam) if T is None else T @ _damped_solve(T.T @ S @ T, T.T @ g, lam)
+        dmu = np.where(stuck, 0.0, -(gm + np.sum(Hym * dy[pb.cols], axis=1)) / Hmm_d)
     return dy, dmu
 
 
@@ -311,7 +364,7 @@ def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter):
     for it in range(1, max_iter + 1):
         improved = False
         for _ in range(12):
-            dy, dmu = _solve_step(pb, A, b, e, w, lam)
+            dy, dmu = _solve_step(pb, A, b, e, w, lam, y, mu)
             R2, y2, mu2 = pb.apply(R, y, mu, dy, dmu)
             e2, state2 = pb.residuals(R2, y2, mu2)
             _, cost2 = _weights(e2, sigma, c2, robust, mask)
