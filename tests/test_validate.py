@@ -117,3 +117,29 @@ def test_noise_sweep_grows_with_noise(tmp_path):
         assert r["vp_error_mm"][-1] > r["vp_error_mm"][1] > 0
         assert r["direction_error_deg"][-1] > r["direction_error_deg"][1] > 0
     assert "Reproduce" in ns.markdown(res, "cmd")
+
+
+def test_paired_comparison_of_exact_and_central():
+    """The report's draw-by-draw comparison: counts, median difference and a Wilcoxon p-value that
+    is small for a consistent difference and absent for identical answers; answered draws only."""
+    from catadioptric.validate.benchmark_report import _paired
+
+    rng = np.random.default_rng(3)
+    c = rng.uniform(0.2, 0.4, 12)
+
+    def draw(e, ce, amb=False):
+        return {"rotation_error_deg": e, "rotation_std_deg": 0.1, "ambiguous": amb,
+                "central": {"rotation_error_deg": ce, "rotation_std_deg": 0.2, "ambiguous": False}}
+
+    draws = [draw(x - 0.1, x) for x in c] + [draw(50.0, 0.1, amb=True), {"error": "failed", "central": {}}]
+    p = _paired(draws)
+    assert p["n"] == 12 and p["exact_better"] == 12
+    assert np.isclose(p["median_difference_deg"], -0.1)
+    assert p["wilcoxon_p"] < 0.01
+    assert np.isclose(p["exact_error_over_predicted"]["median"], np.median((c - 0.1) / 0.1))
+    # each model over its own answered draws (the central answer of the draw the exact model left ambiguous too)
+    assert np.isclose(p["central_error_over_predicted"]["median"], np.median(np.r_[c, 0.1] / 0.2))
+    same = _paired([draw(x, x) for x in c])
+    assert same["exact_better"] == 0 and same["wilcoxon_p"] is None
+    mixed = _paired([draw(x + (0.01 if i % 2 else -0.01), x) for i, x in enumerate(c)])
+    assert mixed["wilcoxon_p"] > 0.3
