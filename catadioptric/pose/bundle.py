@@ -353,10 +353,13 @@ def _settle_depths(pb, R, y, mu):
     return mu, e, A, b
 
 
-def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter):
+def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter, tol_chi2):
     """Levenberg-Marquardt. The damping falls tenfold after each accepted step, down to 1e-15: the
     flat direction of a near-central rig (the scene's scale) has an eigenvalue many orders below
-    the diagonal it is damped with, and a damping that stays near 1e-3 would stall along it."""
+    the diagonal it is damped with, and a damping that stays near 1e-3 would stall along it.
+    Stops when a step lowers the cost (chi-square units: residuals over ``sigma``) by less than
+    ``tol_chi2``: along that flat direction the steps go on lowering the cost by thousandths of a
+    unit, a difference the pixels cannot tell apart, and used to run to ``max_iter``."""
     mu, e, A, b = _settle_depths(pb, R, y, mu)
     w, cost = _weights(e, sigma, c2, robust, mask)
     lam = 1e-5
@@ -375,18 +378,20 @@ def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter):
         if not improved:
             break
         rel = (cost - cost2) / max(cost, 1e-300)
+        cost_before = cost
         R, y, mu, e = R2, y2, mu2, e2
         A, b = pb.jacobian(R, y, mu, state2)
         lam = max(lam / 10.0, 1e-15)
         w, cost = _weights(e, sigma, c2, robust, mask)
-        if rel < 1e-10:
+        if rel < 1e-10 or cost_before - cost < tol_chi2:
             break
     return R, y, mu, cost, it
 
 
 def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, owner_a, uv_b, owner_b, *,
                     centres=None, sigma_cost: float = 1.0, pixel_sigma: float | None = None, robust: bool = True,
-                    c2: float = 9.0, max_iter: int = 50, inlier_sigmas: float = 3.5) -> TwoViewFit:
+                    c2: float = 9.0, max_iter: int = 50, inlier_sigmas: float = 3.5,
+                    tol_chi2: float = 0.01) -> TwoViewFit:
     """Refine ``x_B = R x_A + t`` and the lines jointly from the pixels of both views.
 
     ``dirs0 (F, 3)``: starting family directions in A; ``points0 (L, 3)``: a starting point of
@@ -396,7 +401,10 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     stage (Cauchy, ``c2`` in units of it); ``pixel_sigma``: known pixel noise for the covariance
     (default: estimated from the inliers). Inliers after the robust stage: pixels within
     ``inlier_sigmas`` times the robust noise estimate (or ``pixel_sigma``); then a plain
-    least-squares polish on them.
+    least-squares polish on them. Each stage stops when a step lowers its cost by less than
+    ``tol_chi2`` (chi-square units); the robust stage after at most ``max_iter`` steps, the polish
+    when the two have taken ``2 max_iter`` (with exact pixels the robust stage's cost, in units of
+    a floor of ``sigma_cost``, stops early and the polish goes on to the last digits).
     """
     uv_a = np.asarray(uv_a, float).reshape(-1, 2)
     uv_b = np.asarray(uv_b, float).reshape(-1, 2)
@@ -427,19 +435,19 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     lam0 = (bb * np.sum(rays_d * w0, 1) - np.sum(sl * w0, 1)) / np.maximum(1 - bb * bb, 1e-12)
     mu = np.clip(lam0 * rho[owner] / k, -_MU_MAX, _MU_MAX)
     mask = np.ones(len(uv), dtype=bool)
-    R, y, mu, cost, it1 = _lm(pb, R, y, mu, sigma_cost, c2, robust, mask, max_iter)
+    R, y, mu, cost, it1 = _lm(pb, R, y, mu, sigma_cost, c2, robust, mask, max_iter, tol_chi2)
     e, _, _ = pb.evaluate(R, y, mu, jac=False)
     dist = np.linalg.norm(e, axis=1)
     fin = np.isfinite(dist)
     if pixel_sigma is not None:
-        thr = inlier_sigmas * pixel_sigma
+        noise = pixel_sigma
     else:
         sig = float(np.median(dist[fin]) / _HALF_NORMAL_MEDIAN) if fin.any() else sigma_cost
-        thr = inlier_sigmas * max(sig, 1e-9 * sigma_cost)
-    inl = fin & (dist <= thr)
+        noise = max(sig, 1e-9 * sigma_cost)
+    inl = fin & (dist <= inlier_sigmas * noise)
     if inl[view == 1].sum() < 3:
         inl = fin
-    R, y, mu, _, it2 = _lm(pb, R, y, mu, 1.0, c2, False, inl, max_iter)
+    R, y, mu, _, it2 = _lm(pb, R, y, mu, noise, c2, False, inl, 2 * max_iter - it1, tol_chi2)
     e, A, b = pb.evaluate(R, y, mu)
     dist = np.linalg.norm(e, axis=1)
     inl &= np.isfinite(dist)
