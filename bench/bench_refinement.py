@@ -3,14 +3,15 @@ benchmark pairs, with the refinement's stopping tolerance ``tol_chi2`` at each v
 one run (the values alternate pair by pair, so a shared machine's load falls on all of them).
 
     .venv/bin/python bench/bench_refinement.py [--data render/out/relative_pose_benchmark]
-        [--configs hyperboloid,sphere] [--pairs 8] [--noise 2] [--tol 0 0.01]
+        [--configs hyperboloid,sphere] [--pairs 8] [--noise 2] [--tol 0 0.01] [--cold]
 
 Needs the benchmark's rendered datasets (`catadioptric validate benchmark ... --data DIR` renders
 them). Same pixels, draws and seeds as the benchmark (spec validate/relative_pose.toml); the
-central baseline is not run. Writes bench/results/refinement.json: per tolerance the median
-seconds per draw, the summed seconds, the median rotation and translation-direction errors,
-and per pair the raw figures; the ratio of summed seconds to the first tolerance's. Standalone
-(not in bench/run.py: it needs the rendered datasets).
+central baseline is not run. Writes bench/results/refinement.json: per variant (a tolerance, with
+the images continued from the last step's reflection points, and with ``--cold`` also searched
+anew at each step) the median seconds per draw, the summed seconds, the median rotation and
+translation-direction errors, and per pair the raw figures; the ratio of summed seconds to the
+first variant's. Standalone (not in bench/run.py: it needs the rendered datasets).
 """
 from __future__ import annotations
 
@@ -29,24 +30,34 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 
 
-def _with_tol(tol, fn, *args, **kw):
-    """``fn(*args, **kw)`` with the refinement's ``tol_chi2`` keyword default set to ``tol``."""
+def _with_options(tol, warm, fn, *args, **kw):
+    """``fn(*args, **kw)`` with the refinement's ``tol_chi2`` and ``warm_start`` keyword defaults set."""
     from catadioptric.pose import bundle
 
     defaults = bundle.refine_two_view.__kwdefaults__
-    old = defaults["tol_chi2"]
+    old = dict(defaults)
     defaults["tol_chi2"] = float(tol)
+    defaults["warm_start"] = bool(warm)
     try:
         return fn(*args, **kw)
     finally:
-        defaults["tol_chi2"] = old
+        defaults.update(old)
 
 
-def run(data, configs=("hyperboloid", "sphere"), n_pairs=8, noise=2.0, tols=(0.0, 0.01)) -> dict:
+def _variants(tols, cold):
+    """``(key, tol, warm)`` of each variant: every tolerance with warm starts, and without if ``cold``."""
+    out = [(f"tol={t:g} warm", t, True) for t in tols]
+    if cold:
+        out += [(f"tol={t:g} cold", t, False) for t in tols]
+    return out
+
+
+def run(data, configs=("hyperboloid", "sphere"), n_pairs=8, noise=2.0, tols=(0.0, 0.01), cold=False) -> dict:
     from catadioptric.validate.benchmark import dataset_folder
     from catadioptric.validate.benchmark_spec import load_benchmark_spec, pairs_of
     from catadioptric.validate.relative_pose import evaluate_pair
 
+    variants = _variants(tols, cold)
     spec = load_benchmark_spec(os.path.join(ROOT, "validate", "relative_pose.toml"))
     by_name = {c["name"]: c for c in spec["configs"]}
     unknown = [c for c in configs if c not in by_name]
@@ -60,35 +71,36 @@ def run(data, configs=("hyperboloid", "sphere"), n_pairs=8, noise=2.0, tols=(0.0
                 raise SystemExit(f"--data: no dataset {folder} (render the benchmark first: catadioptric validate "
                                  f"benchmark --data {data} --out DIR)")
             row = {"config": name, "pair": pair.index, "renderer": pair.renderer, "runs": {}}
-            for tol in tols:
+            for key, tol, warm in variants:
                 t0 = time.perf_counter()
-                res = _with_tol(tol, evaluate_pair, folder, pair.names, noise_levels=(noise,), draws=spec["draws"],
-                                seed=[spec["seed"], pair.index], pixels=spec["pixels"], min_pixels=spec["min_pixels"],
-                                max_pixels=spec["max_pixels"], central=False)
+                res = _with_options(tol, warm, evaluate_pair, folder, pair.names, noise_levels=(noise,),
+                                    draws=spec["draws"], seed=[spec["seed"], pair.index], pixels=spec["pixels"],
+                                    min_pixels=spec["min_pixels"], max_pixels=spec["max_pixels"], central=False)
                 d = res["draws"]
-                row["runs"][str(tol)] = {"seconds": time.perf_counter() - t0,
-                                         "seconds_per_draw": [x["seconds"] for x in d],
-                                         "rotation_error_deg": [x["rotation_error_deg"] for x in d],
-                                         "translation_direction_error_deg":
-                                             [x["translation_direction_error_deg"] for x in d]}
+                row["runs"][key] = {"seconds": time.perf_counter() - t0,
+                                    "seconds_per_draw": [x["seconds"] for x in d],
+                                    "rotation_error_deg": [x["rotation_error_deg"] for x in d],
+                                    "translation_direction_error_deg":
+                                        [x["translation_direction_error_deg"] for x in d]}
             print(f"  {name} p{pair.index:02d}: " + ", ".join(
-                f"tol {t}: {np.mean(row['runs'][str(t)]['seconds_per_draw']):.2f} s/draw, "
-                f"{np.median(row['runs'][str(t)]['rotation_error_deg']):.3f} deg" for t in tols), flush=True)
+                f"{k}: {np.mean(row['runs'][k]['seconds_per_draw']):.2f} s/draw, "
+                f"{np.median(row['runs'][k]['rotation_error_deg']):.3f} deg" for k, _, _ in variants), flush=True)
             rows.append(row)
     summary = {}
-    for tol in tols:
-        runs = [r["runs"][str(tol)] for r in rows]
+    for key, _, _ in variants:
+        runs = [r["runs"][key] for r in rows]
         cat = lambda k: np.concatenate([x[k] for x in runs])
-        summary[str(tol)] = {"draws": int(len(cat("seconds_per_draw"))),
-                             "seconds_per_draw_median": float(np.median(cat("seconds_per_draw"))),
-                             "seconds_sum": float(np.sum(cat("seconds_per_draw"))),
-                             "rotation_error_deg_median": float(np.median(cat("rotation_error_deg"))),
-                             "translation_direction_error_deg_median":
-                                 float(np.median(cat("translation_direction_error_deg")))}
-    base = summary[str(tols[0])]["seconds_sum"]
+        summary[key] = {"draws": int(len(cat("seconds_per_draw"))),
+                        "seconds_per_draw_median": float(np.median(cat("seconds_per_draw"))),
+                        "seconds_sum": float(np.sum(cat("seconds_per_draw"))),
+                        "rotation_error_deg_median": float(np.median(cat("rotation_error_deg"))),
+                        "translation_direction_error_deg_median":
+                            float(np.median(cat("translation_direction_error_deg")))}
+    base = summary[variants[0][0]]["seconds_sum"]
     for s in summary.values():
         s["time_ratio_to_first"] = s["seconds_sum"] / base
     return {"data": data, "configs": list(configs), "pairs": n_pairs, "noise_px": noise, "tols": list(tols),
+            "cold": cold,
             "summary": summary, "rows": rows, "loadavg": list(os.getloadavg())}
 
 
@@ -99,12 +111,14 @@ def main() -> int:
     ap.add_argument("--pairs", type=int, default=8, help="first N pairs of each configuration (default 8)")
     ap.add_argument("--noise", type=float, default=2.0, help="pixel noise (default 2)")
     ap.add_argument("--tol", type=float, nargs="+", default=[0.0, 0.01], help="tol_chi2 values (default 0 0.01)")
+    ap.add_argument("--cold", action="store_true",
+                    help="also each tolerance with warm_start=False (every image searched anew at each step)")
     args = ap.parse_args()
-    res = run(args.data, tuple(args.configs.split(",")), args.pairs, args.noise, tuple(args.tol))
+    res = run(args.data, tuple(args.configs.split(",")), args.pairs, args.noise, tuple(args.tol), args.cold)
     out = os.path.join(HERE, "results", "refinement.json")
     write_json(out, {"benchmark": "refinement", "meta": metadata(), **res})
     for t, s in res["summary"].items():
-        print(f"tol_chi2 {t}: {s['seconds_per_draw_median']:.2f} s per draw (median of {s['draws']}), time "
+        print(f"{t}: {s['seconds_per_draw_median']:.2f} s per draw (median of {s['draws']}), time "
               f"{s['time_ratio_to_first']:.2f}x the first, rotation {s['rotation_error_deg_median']:.3f} deg, "
               f"translation direction {s['translation_direction_error_deg_median']:.2f} deg")
     print(f"wrote {os.path.relpath(out)}")

@@ -393,3 +393,58 @@ def test_three_solutions_near_a_cusp_in_the_plane_of_camera_and_axis():
     found = pr.mirror_points[np.isfinite(pr.mirror_points[:, 0])]
     for r in expected:
         assert np.min(np.linalg.norm(found - r, axis=-1)) < 1e-8 * m.scale
+
+
+@pytest.mark.parametrize("name", ORACLE_RIGS)
+def test_images_continued_from_a_nearby_reflection_point_are_the_searched_ones(name):
+    """``project_from``: Newton's method from the reflection point of a nearby point lands on the
+    valid image of ``project`` that continues it (to 1e-9 of the mirror's scale); a start that is
+    missing or far off, or a point no longer seen, is left to the search (``ok`` False)."""
+    from catadioptric.linefit import project_with_jacobian
+    from catadioptric.projection import project_from
+
+    cam = preset(name, width=320, height=240)
+    rng = np.random.default_rng(11)
+    uv = np.stack([rng.uniform(0, 319, 3000), rng.uniform(0, 239, 3000)], -1)
+    rays = cam.backproject(uv)
+    ok = np.nonzero(rays.valid)[0][:400]
+    lam = rng.uniform(0.5, 20.0, len(ok))
+    P0 = rays.origins[ok] + lam[:, None] * rays.directions[ok]
+    r0 = rays.origins[ok]
+    P1 = P0 + rng.normal(size=P0.shape) * 1e-3 * lam[:, None]  # a step of an optimiser: about 0.06 deg
+    uv1, r1, ok1 = project_from(cam, P1, r0)
+    assert ok1.mean() > 0.95, ok1.mean()
+    pr = cam.project(P1[ok1])
+    d = np.linalg.norm(pr.mirror_points - r1[ok1][:, None, :], axis=-1)
+    k = np.argmin(np.where(pr.valid, d, np.inf), axis=1)
+    i = np.arange(len(k))
+    assert np.all(pr.valid[i, k])
+    L = cam.mirror.scale
+    assert np.max(d[i, k]) < 1e-9 * L
+    assert np.max(np.linalg.norm(pr.uv[i, k] - uv1[ok1], axis=-1)) < 1e-6
+    # the same choice as the search for the image nearest the old pixel, row by row
+    uv_s, _, vis_s = project_with_jacobian(cam, P1, uv[ok], jacobian=False)
+    uv_w, G_w, vis_w = project_with_jacobian(cam, P1, uv[ok], start=r0)
+    assert np.allclose(uv_w, uv_s, atol=1e-6, equal_nan=True) and np.array_equal(vis_w, vis_s)
+    assert np.all(np.isfinite(G_w[vis_w]))
+    # no start: left to the search; a start across the mirror: whatever it keeps is a valid image
+    # within a quarter of the mirror's scale of the start, the rest left to the search
+    _, _, ok_nan = project_from(cam, P1, np.full_like(r0, np.nan))
+    assert not ok_nan.any()
+    far = r0.copy()
+    far[:, :2] *= -1.0
+    _, r_far, ok_far = project_from(cam, P1, far)
+    assert ok_far.mean() < 0.5
+    if ok_far.any():
+        pr = cam.project(P1[ok_far])
+        d = np.linalg.norm(pr.mirror_points - r_far[ok_far][:, None, :], axis=-1)
+        assert np.all(np.min(np.where(pr.valid, d, np.inf), axis=1) < 1e-9 * L)
+        assert np.all(np.linalg.norm(r_far[ok_far] - far[ok_far], axis=1) <= 0.25 * L)
+
+
+def test_project_from_refuses_a_start_per_point_of_the_wrong_length():
+    from catadioptric.projection import project_from
+
+    cam = preset("hyperboloid")
+    with pytest.raises(cd.CatadioptricError, match=r"start: expected one reflection point per point \(2\), got 3"):
+        project_from(cam, np.ones((2, 3)), np.ones((3, 3)))

@@ -9,7 +9,7 @@ from ..cameras import CatadioptricCamera
 
 # --------------------------------------------------------------------------- projection with derivatives
 def project_with_jacobian(cam: CatadioptricCamera, points, uv_ref, *, jacobian: bool = True,
-                          mirror_points: bool = False):
+                          mirror_points: bool = False, start=None):
     """The image of each point nearest a reference pixel, with its derivative.
 
     ``points (N, 3)`` in M, ``uv_ref (N, 2)``. Returns ``uv (N, 2)``, ``G (N, 2, 3)`` (d uv / d point)
@@ -25,7 +25,9 @@ def project_with_jacobian(cam: CatadioptricCamera, points, uv_ref, *, jacobian: 
     pinhole gives ``d uv / dr``. With ``jacobian=False``, ``G`` is not computed (NaN); with
     ``mirror_points=True`` the reflection points ``r (N, 3)`` used (NaN where none) are returned
     fourth, for :func:`image_jacobian` later (an optimiser that only needs ``G`` at the steps it
-    accepts).
+    accepts). ``start (N, 3)``: reflection points of nearby points (an optimiser's last state;
+    NaN rows: none) from which each image is continued (:func:`catadioptric.projection.project_from`);
+    only the rows it cannot continue go through the search for every image.
     """
     P = as_float_array(points, "points", 3, finite=False).reshape(-1, 3)
     ref = as_float_array(uv_ref, "uv_ref", 2).reshape(-1, 2)
@@ -38,6 +40,25 @@ def project_with_jacobian(cam: CatadioptricCamera, points, uv_ref, *, jacobian: 
     r_all = np.full((N, 3), np.nan)
     if N == 0:
         return (uv, G, vis, r_all) if mirror_points else (uv, G, vis)
+    rest = np.arange(N)
+    if start is not None:
+        from ..projection import project_from
+
+        uv_s, r_s, ok_s = project_from(cam, P, start)
+        uv[ok_s], r_all[ok_s], vis[ok_s] = uv_s[ok_s], r_s[ok_s], True
+        rest = np.nonzero(~ok_s)[0]
+    if len(rest):
+        _search(cam, P, ref, rest, uv, vis, r_all)
+    ok = np.all(np.isfinite(r_all), axis=1)
+    if jacobian and np.any(ok):
+        G[ok] = _uv_jacobian(cam, r_all[ok], P[ok])
+    return (uv, G, vis, r_all) if mirror_points else (uv, G, vis)
+
+
+def _search(cam, P_all, ref_all, rows, uv_out, vis_out, r_out):
+    """:func:`project_with_jacobian`'s choice among every image, for the points of ``rows``."""
+    P, ref = P_all[rows], ref_all[rows]
+    N = len(rows)
     finite = np.all(np.isfinite(P), axis=-1)
     pr = cam.project(np.where(finite[:, None], P, 0.0))
     d2 = np.sum((pr.uv - ref[:, None, :]) ** 2, axis=-1)
@@ -47,12 +68,9 @@ def project_with_jacobian(cam: CatadioptricCamera, points, uv_ref, *, jacobian: 
     k = np.argmin(key, axis=-1)
     idx = np.arange(N)
     ok = np.isfinite(key[idx, k]) & finite
-    uv[ok] = pr.uv[idx[ok], k[ok]]
-    vis[ok] = pr.valid[idx[ok], k[ok]]
-    r_all[ok] = pr.mirror_points[idx[ok], k[ok]]
-    if jacobian and np.any(ok):
-        G[ok] = _uv_jacobian(cam, r_all[ok], P[ok])
-    return (uv, G, vis, r_all) if mirror_points else (uv, G, vis)
+    uv_out[rows[ok]] = pr.uv[idx[ok], k[ok]]
+    vis_out[rows[ok]] = pr.valid[idx[ok], k[ok]]
+    r_out[rows[ok]] = pr.mirror_points[idx[ok], k[ok]]
 
 
 def image_jacobian(cam: CatadioptricCamera, mirror_points, points) -> np.ndarray:
