@@ -3,13 +3,14 @@ benchmark pairs, with the refinement's stopping tolerance ``tol_chi2`` at each v
 one run (the values alternate pair by pair, so a shared machine's load falls on all of them).
 
     .venv/bin/python bench/bench_refinement.py [--data render/out/relative_pose_benchmark]
-        [--configs hyperboloid,sphere] [--pairs 8] [--noise 2] [--tol 0 0.01] [--cold]
+        [--configs hyperboloid,sphere] [--pairs 8] [--noise 2] [--tol 0 0.01] [--cold] [--settle]
 
 Needs the benchmark's rendered datasets (`catadioptric validate benchmark ... --data DIR` renders
 them). Same pixels, draws and seeds as the benchmark (spec validate/relative_pose.toml); the
 central baseline is not run. Writes bench/results/refinement.json: per variant (a tolerance, with
-the images continued from the last step's reflection points, and with ``--cold`` also searched
-anew at each step) the median seconds per draw, the summed seconds, the median rotation and
+the images continued from the last step's reflection points; with ``--cold`` also searched
+anew at each step; with ``--settle`` also each trial's depths re-solved) the median seconds per
+draw, the summed seconds, the median rotation and
 translation-direction errors, and per pair the raw figures; the ratio of summed seconds to the
 first variant's. Standalone (not in bench/run.py: it needs the rendered datasets).
 """
@@ -30,34 +31,39 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 
 
-def _with_options(tol, warm, fn, *args, **kw):
-    """``fn(*args, **kw)`` with the refinement's ``tol_chi2`` and ``warm_start`` keyword defaults set."""
+def _with_options(tol, warm, settle, fn, *args, **kw):
+    """``fn(*args, **kw)`` with the refinement's ``tol_chi2``, ``warm_start`` and ``settle_depths``
+    keyword defaults set."""
     from catadioptric.pose import bundle
 
     defaults = bundle.refine_two_view.__kwdefaults__
     old = dict(defaults)
     defaults["tol_chi2"] = float(tol)
     defaults["warm_start"] = bool(warm)
+    defaults["settle_depths"] = bool(settle)
     try:
         return fn(*args, **kw)
     finally:
         defaults.update(old)
 
 
-def _variants(tols, cold):
-    """``(key, tol, warm)`` of each variant: every tolerance with warm starts, and without if ``cold``."""
-    out = [(f"tol={t:g} warm", t, True) for t in tols]
+def _variants(tols, cold, settle):
+    """``(key, tol, warm, settle)`` of each variant: every tolerance with warm starts; also without
+    them if ``cold``; also with each trial's depths re-solved if ``settle``."""
+    out = [(f"tol={t:g} warm", t, True, False) for t in tols]
     if cold:
-        out += [(f"tol={t:g} cold", t, False) for t in tols]
+        out += [(f"tol={t:g} cold", t, False, False) for t in tols]
+    if settle:
+        out += [(f"tol={t:g} warm settle", t, True, True) for t in tols]
     return out
 
 
-def run(data, configs=("hyperboloid", "sphere"), n_pairs=8, noise=2.0, tols=(0.0, 0.01), cold=False) -> dict:
+def run(data, configs=("hyperboloid", "sphere"), n_pairs=8, noise=2.0, tols=(0.0, 0.01), cold=False, settle=False) -> dict:
     from catadioptric.validate.benchmark import dataset_folder
     from catadioptric.validate.benchmark_spec import load_benchmark_spec, pairs_of
     from catadioptric.validate.relative_pose import evaluate_pair
 
-    variants = _variants(tols, cold)
+    variants = _variants(tols, cold, settle)
     spec = load_benchmark_spec(os.path.join(ROOT, "validate", "relative_pose.toml"))
     by_name = {c["name"]: c for c in spec["configs"]}
     unknown = [c for c in configs if c not in by_name]
@@ -71,9 +77,9 @@ def run(data, configs=("hyperboloid", "sphere"), n_pairs=8, noise=2.0, tols=(0.0
                 raise SystemExit(f"--data: no dataset {folder} (render the benchmark first: catadioptric validate "
                                  f"benchmark --data {data} --out DIR)")
             row = {"config": name, "pair": pair.index, "renderer": pair.renderer, "runs": {}}
-            for key, tol, warm in variants:
+            for key, tol, warm, settle_on in variants:
                 t0 = time.perf_counter()
-                res = _with_options(tol, warm, evaluate_pair, folder, pair.names, noise_levels=(noise,),
+                res = _with_options(tol, warm, settle_on, evaluate_pair, folder, pair.names, noise_levels=(noise,),
                                     draws=spec["draws"], seed=[spec["seed"], pair.index], pixels=spec["pixels"],
                                     min_pixels=spec["min_pixels"], max_pixels=spec["max_pixels"], central=False)
                 d = res["draws"]
@@ -84,10 +90,10 @@ def run(data, configs=("hyperboloid", "sphere"), n_pairs=8, noise=2.0, tols=(0.0
                                         [x["translation_direction_error_deg"] for x in d]}
             print(f"  {name} p{pair.index:02d}: " + ", ".join(
                 f"{k}: {np.mean(row['runs'][k]['seconds_per_draw']):.2f} s/draw, "
-                f"{np.median(row['runs'][k]['rotation_error_deg']):.3f} deg" for k, _, _ in variants), flush=True)
+                f"{np.median(row['runs'][k]['rotation_error_deg']):.3f} deg" for k, *_ in variants), flush=True)
             rows.append(row)
     summary = {}
-    for key, _, _ in variants:
+    for key, *_ in variants:
         runs = [r["runs"][key] for r in rows]
         cat = lambda k: np.concatenate([x[k] for x in runs])
         summary[key] = {"draws": int(len(cat("seconds_per_draw"))),
@@ -100,7 +106,7 @@ def run(data, configs=("hyperboloid", "sphere"), n_pairs=8, noise=2.0, tols=(0.0
     for s in summary.values():
         s["time_ratio_to_first"] = s["seconds_sum"] / base
     return {"data": data, "configs": list(configs), "pairs": n_pairs, "noise_px": noise, "tols": list(tols),
-            "cold": cold,
+            "cold": cold, "settle": settle,
             "summary": summary, "rows": rows, "loadavg": list(os.getloadavg())}
 
 
@@ -113,8 +119,11 @@ def main() -> int:
     ap.add_argument("--tol", type=float, nargs="+", default=[0.0, 0.01], help="tol_chi2 values (default 0 0.01)")
     ap.add_argument("--cold", action="store_true",
                     help="also each tolerance with warm_start=False (every image searched anew at each step)")
+    ap.add_argument("--settle", action="store_true",
+                    help="also each tolerance with settle_depths=True (each trial's depths re-solved)")
     args = ap.parse_args()
-    res = run(args.data, tuple(args.configs.split(",")), args.pairs, args.noise, tuple(args.tol), args.cold)
+    res = run(args.data, tuple(args.configs.split(",")), args.pairs, args.noise, tuple(args.tol), args.cold,
+              args.settle)
     out = os.path.join(HERE, "results", "refinement.json")
     write_json(out, {"benchmark": "refinement", "meta": metadata(), **res})
     for t, s in res["summary"].items():

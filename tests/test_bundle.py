@@ -183,3 +183,60 @@ def test_a_depth_at_its_limit_is_held():
         else:
             assert dmu[2] == dmu_free[2] or np.isclose(dmu[2], dmu_free[2], rtol=1e-7)
     assert held >= 5
+
+
+def test_a_trial_is_judged_at_its_depths_re_solved():
+    """``_trial(settle=True)``: each pixel's depth moved by one Gauss-Newton step on its own before
+    the residuals are taken. Exact pixels of a line at its true place, every depth pushed along the
+    line: without the step the residuals stay (pixels along the curve); with it what is left is
+    the step's second-order error, a quarter as large when the push is halved."""
+    from catadioptric.pose.bundle import _Problem, _trial
+    from catadioptric.rigs import preset
+
+    cam = preset("hyperboloid")
+    q, s = np.array([0.0, 4.0, 1.0]), np.array([1.0, 0.0, 0.0])
+    lam = np.linspace(-3.0, 3.0, 25)
+    P = q + lam[:, None] * s
+    pr = cam.project(P)
+    k = np.argmax(pr.valid, axis=1)
+    i = np.arange(len(P))
+    keep = pr.valid[i, k]
+    uv = pr.uv[i, k][keep]
+    c = np.zeros(3)
+    pb = _Problem(cam, cam, s[None], q[None], [0], uv, np.zeros(len(uv), int), np.zeros(len(uv), int), (c, c),
+                  np.eye(3), np.array([3.0, 0.0, 0.0]))
+    y = pb.start()
+    mu_true = lam[keep] / np.linalg.norm(q)  # the tangent of each point's angle from the perpendicular
+    e0, _ = pb.residuals(np.eye(3), y, mu_true)
+    assert np.abs(e0).max() < 1e-7  # the chart puts the line where it is
+    left = []
+    for deg in (1.0, 0.5):
+        mu = np.tan(np.arctan(mu_true) + np.radians(deg))
+        _, e_off, _ = _trial(pb, np.eye(3), y, mu, settle=False)
+        mu2, e_set, _ = _trial(pb, np.eye(3), y, mu, settle=True)
+        push = np.linalg.norm(e_off, axis=1)
+        assert push.min() > deg, push.min()  # about 3 pixels a degree here
+        left.append(np.linalg.norm(e_set, axis=1).max())
+        assert left[-1] < 0.02 * push.max(), (left[-1], push.max())
+        assert np.abs(np.arctan(mu2) - np.arctan(mu_true)).max() < 0.05 * np.radians(deg)
+    assert 3.0 < left[0] / left[1] < 5.0, left
+
+
+def test_the_depth_column_is_the_jacobians():
+    """``_Problem.depth_column`` is the depth column of ``_Problem.jacobian``, in both views."""
+    from catadioptric.pose.bundle import _Problem
+    from catadioptric.pose.rotation import exp_rotation
+    from catadioptric.rigs import preset
+
+    cam = preset("hyperboloid")
+    q, s = np.array([0.5, 4.0, 1.0]), np.array([1.0, 0.2, 0.1])
+    R, t = exp_rotation(np.array([0.02, -0.1, 0.05])), np.array([1.5, 0.3, 0.0])
+    mu = np.linspace(-0.5, 0.5, 12)
+    view = np.repeat([0, 1], 6)
+    c = np.zeros(3)
+    pb = _Problem(cam, cam, s[None], q[None], [0], np.full((12, 2), 300.0), np.zeros(12, int), view, (c, c), R, t)
+    y = pb.start()
+    _, state = pb.residuals(R, y, mu)
+    _, b = pb.jacobian(R, y, mu, state)
+    assert np.any(b[view == 1] != 0) and np.any(b[view == 0] != 0)
+    assert np.allclose(pb.depth_column(R, y, state), b, rtol=1e-12, atol=1e-12 * np.abs(b).max())

@@ -188,11 +188,7 @@ class _Problem:
         s, nv, al, rho, u, that, ntv, k = self.parts(y)
         f, l = self.fam[self.owner], self.owner
         inb = self.view == 1
-        G = np.full((self.N, 2, 3), np.nan)
-        for v in (0, 1):
-            m = self.view == v
-            if m.any():
-                G[m] = image_jacobian(self.cams[v], r[m], X[m])
+        G = self._image_jacobians(r, X)
         rj = rho[l]
         e1f, e2f = self.e1[f], self.e2[f]
         sf = s[f]
@@ -225,6 +221,26 @@ class _Problem:
         A[bad] = 0.0
         b[bad] = 0.0
         return A, b
+
+    def _image_jacobians(self, r, X):
+        """``d uv / d X (N, 2, 3)`` of each pixel's point in its own view's frame (NaN where no image)."""
+        G = np.full((self.N, 2, 3), np.nan)
+        for v in (0, 1):
+            m = self.view == v
+            if m.any():
+                G[m] = image_jacobian(self.cams[v], r[m], X[m])
+        return G
+
+    def depth_column(self, R, y, state):
+        """The depth column ``b (N, 2)`` of :meth:`jacobian` alone (zero where a point has no image)."""
+        X, r, V = state
+        s, _, _, rho, _, _, _, k = self.parts(y)
+        d = k * s[self.fam[self.owner]] / rho[self.owner, None]  # d P / d mu, in A
+        inb = self.view == 1
+        d[inb] = d[inb] @ R.T
+        b = np.einsum("nij,nj->ni", self._image_jacobians(r, X), d)
+        b[~np.isfinite(b).all(1)] = 0.0
+        return b
 
     def apply(self, R, y, mu, dy, dmu):
         """The state after a step (``dy[:3]`` rotates ``R`` on the left; the rest adds)."""
@@ -346,27 +362,49 @@ def _solve_step(pb, A, b, e, w, lam, y, mu):
     return dy, dmu
 
 
+def _depth_step(mu, e, b):
+    """Each pixel's depth after one Gauss-Newton step on it alone (residuals ``e``, depth column
+    ``b``), moved at most by its own size plus one and kept within ``+-_MU_MAX``."""
+    bb = np.sum(b * b, axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dmu = np.where(bb > 0, -np.sum(b * np.nan_to_num(e), axis=1) / bb, 0.0)
+    cap = np.abs(mu) + 1.0
+    return np.clip(mu + np.clip(dmu, -cap, cap), -_MU_MAX, _MU_MAX)
+
+
 def _settle_depths(pb, R, y, mu):
     """One Gauss-Newton step on each pixel's depth alone (the other unknowns fixed), before the joint
     steps: the depths are the most nonlinear unknowns (a pixel near a vanishing point moves little
     with its depth). Returns ``(mu, e, A, b)`` at the new depths."""
     e, A, b = pb.evaluate(R, y, mu)
-    bb = np.sum(b * b, axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        dmu = np.where(bb > 0, -np.sum(b * np.nan_to_num(e), axis=1) / bb, 0.0)
-    cap = np.abs(mu) + 1.0
-    mu = np.clip(mu + np.clip(dmu, -cap, cap), -_MU_MAX, _MU_MAX)
+    mu = _depth_step(mu, e, b)
     e, A, b = pb.evaluate(R, y, mu)
     return mu, e, A, b
 
 
-def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter, tol_chi2):
+def _trial(pb, R, y, mu, settle):
+    """A trial state's residuals and the state :meth:`_Problem.jacobian` needs, ``(mu, e, state)``.
+    With ``settle``, each pixel's depth is first moved by one Gauss-Newton step on its own
+    (:func:`_depth_step`) at the trial's other unknowns: the joint step moves each depth only as
+    far as its linearisation says, and the linearisation is poor (the image of a point moves along
+    its curve nonlinearly with its depth). Judged at the depths it left, a step that moves the
+    lines' directions or the scene's scale is rejected at small damping and Levenberg-Marquardt
+    zig-zags along a near-central rig's flat scale (a variable-projection step on the depths)."""
+    e, state = pb.residuals(R, y, mu)
+    if settle:
+        mu = _depth_step(mu, e, pb.depth_column(R, y, state))
+        e, state = pb.residuals(R, y, mu)
+    return mu, e, state
+
+
+def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter, tol_chi2, settle=False):
     """Levenberg-Marquardt. The damping falls tenfold after each accepted step, down to 1e-15: the
     flat direction of a near-central rig (the scene's scale) has an eigenvalue many orders below
     the diagonal it is damped with, and a damping that stays near 1e-3 would stall along it.
     Stops when a step lowers the cost (chi-square units: residuals over ``sigma``) by less than
     ``tol_chi2``: along that flat direction the steps go on lowering the cost by thousandths of a
-    unit, a difference the pixels cannot tell apart, and used to run to ``max_iter``."""
+    unit, a difference the pixels cannot tell apart, and used to run to ``max_iter``. ``settle``:
+    each trial's depths re-solved before it is judged (:func:`_trial`)."""
     mu, e, A, b = _settle_depths(pb, R, y, mu)
     w, cost = _weights(e, sigma, c2, robust, mask)
     lam = 1e-5
@@ -376,7 +414,7 @@ def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter, tol_chi2):
         for _ in range(12):
             dy, dmu = _solve_step(pb, A, b, e, w, lam, y, mu)
             R2, y2, mu2 = pb.apply(R, y, mu, dy, dmu)
-            e2, state2 = pb.residuals(R2, y2, mu2)
+            mu2, e2, state2 = _trial(pb, R2, y2, mu2, settle)
             _, cost2 = _weights(e2, sigma, c2, robust, mask)
             if cost2 <= cost:
                 improved = True
@@ -398,7 +436,7 @@ def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter, tol_chi2):
 def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, owner_a, uv_b, owner_b, *,
                     centres=None, sigma_cost: float = 1.0, pixel_sigma: float | None = None, robust: bool = True,
                     c2: float = 9.0, max_iter: int = 50, inlier_sigmas: float = 3.5,
-                    tol_chi2: float = 0.01, warm_start: bool = True) -> TwoViewFit:
+                    tol_chi2: float = 0.01, warm_start: bool = True, settle_depths: bool = False) -> TwoViewFit:
     """Refine ``x_B = R x_A + t`` and the lines jointly from the pixels of both views.
 
     ``dirs0 (F, 3)``: starting family directions in A; ``points0 (L, 3)``: a starting point of
@@ -416,7 +454,11 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     (:func:`catadioptric.projection.project_from`); False: every image searched anew each time
     (slower: 1.32x the time over 8 benchmark draws at 2 px, ``bench/bench_refinement.py --cold``;
     the same minimum, though along a near-central rig's flat scale the two may stop apart: 0.172
-    and 0.195 degree on sphere pair 1, equal to 1e-3 degree on the other 7).
+    and 0.195 degree on sphere pair 1, equal to 1e-3 degree on the other 7). ``settle_depths``:
+    each trial step judged at its depths re-solved (:func:`_trial`): lower costs reached in fewer
+    steps, rotations not told apart on the benchmark (160 draws at 1 and 2 px: better in 75,
+    Wilcoxon p = 0.19) at 0.99-1.74x the time (``bench/bench_refinement.py --settle``), so off by
+    default.
     """
     uv_a = np.asarray(uv_a, float).reshape(-1, 2)
     uv_b = np.asarray(uv_b, float).reshape(-1, 2)
@@ -447,7 +489,7 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     lam0 = (bb * np.sum(rays_d * w0, 1) - np.sum(sl * w0, 1)) / np.maximum(1 - bb * bb, 1e-12)
     mu = np.clip(lam0 * rho[owner] / k, -_MU_MAX, _MU_MAX)
     mask = np.ones(len(uv), dtype=bool)
-    R, y, mu, cost, it1 = _lm(pb, R, y, mu, sigma_cost, c2, robust, mask, max_iter, tol_chi2)
+    R, y, mu, cost, it1 = _lm(pb, R, y, mu, sigma_cost, c2, robust, mask, max_iter, tol_chi2, settle_depths)
     e, _, _ = pb.evaluate(R, y, mu, jac=False)
     dist = np.linalg.norm(e, axis=1)
     fin = np.isfinite(dist)
@@ -459,7 +501,7 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     inl = fin & (dist <= inlier_sigmas * noise)
     if inl[view == 1].sum() < 3:
         inl = fin
-    R, y, mu, _, it2 = _lm(pb, R, y, mu, noise, c2, False, inl, 2 * max_iter - it1, tol_chi2)
+    R, y, mu, _, it2 = _lm(pb, R, y, mu, noise, c2, False, inl, 2 * max_iter - it1, tol_chi2, settle_depths)
     e, A, b = pb.evaluate(R, y, mu)
     dist = np.linalg.norm(e, axis=1)
     inl &= np.isfinite(dist)
