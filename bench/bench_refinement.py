@@ -105,7 +105,8 @@ def run(data, configs=("hyperboloid", "sphere"), n_pairs=8, noise=2.0, tols=(0.0
     base = summary[variants[0][0]]["seconds_sum"]
     for s in summary.values():
         s["time_ratio_to_first"] = s["seconds_sum"] / base
-    return {"data": data, "configs": list(configs), "pairs": n_pairs, "noise_px": noise, "tols": list(tols),
+    shown = os.path.relpath(data, ROOT) if os.path.abspath(data).startswith(ROOT + os.sep) else data
+    return {"data": shown, "configs": list(configs), "pairs": n_pairs, "noise_px": noise, "tols": list(tols),
             "cold": cold, "settle": settle,
             "summary": summary, "rows": rows, "loadavg": list(os.getloadavg())}
 
