@@ -455,9 +455,9 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     (slower: 1.32x the time over 8 benchmark draws at 2 px, ``bench/bench_refinement.py --cold``;
     the same minimum, though along a near-central rig's flat scale the two may stop apart: 0.172
     and 0.195 degree on sphere pair 1, equal to 1e-3 degree on the other 7). ``settle_depths``:
-    each trial step judged at its depths re-solved (:func:`_trial`): lower costs reached in fewer
-    steps, rotations not told apart on the benchmark (160 draws at 1 and 2 px: better in 75,
-    Wilcoxon p = 0.19) at 0.99-1.74x the time (``bench/bench_refinement.py --settle``), so off by
+    each trial step judged at its depths re-solved (:func:`_trial`); its rotations are not told
+    apart from the default's on the benchmark (160 draws at 1 and 2 px: better in 75, Wilcoxon
+    p = 0.19) and it takes 0.99-1.74x the time (``bench/bench_refinement.py --settle``), so off by
     default.
     """
     uv_a = np.asarray(uv_a, float).reshape(-1, 2)
