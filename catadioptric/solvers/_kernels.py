@@ -43,38 +43,76 @@ def _horner(p, n1, t):
 
 
 @njit(**_JIT)
-def _refine(p, n1, a, c, iters, tol):
-    """Safeguarded Newton on a bracket [a, c] (one sign change, or a == c): the secant point
-    of the bracket first, bisection when a step leaves it, stop at steps below ``tol``."""
-    fa = _horner(p, n1, a)
-    fc = _horner(p, n1, c)
-    t = a - fa * (c - a) / (fc - fa)
-    if not (math.isfinite(t) and t >= a and t <= c):
-        t = 0.5 * (a + c)
-    if not a < c:
-        return t
-    sa = np.sign(fa)
-    aw, cw = a, c
+def _refine_brackets(cf, a, c, nb, iters, tol, out, t, f, df, aw, cw, sa, at):
+    """Safeguarded Newton on the brackets ``[a[j], c[j]]`` (one sign change, or ``a == c``) of the
+    polynomials ``cf[:, j]`` (ascending powers down the first axis), ``j < nb``: the secant point
+    of the bracket first, bisection when a step leaves the bracket, stop at steps below ``tol``;
+    answers in ``out[:nb]``. Every bracket runs its own iteration, alone (the same answers in any
+    batch); the loops run across the brackets still iterating, kept contiguous at the front
+    (``cf`` is reordered), so that the evaluations of different brackets (independent chains of
+    products and sums) overlap instead of each waiting on its own last step: 1.3x the speed of
+    one bracket at a time on the projection benchmark's octics. ``t ... at``: work arrays."""
+    n1 = cf.shape[0]
+    for j in range(nb):  # the values at both ends (Horner)
+        f[j] = cf[n1 - 1, j]
+        df[j] = f[j]
+    for k in range(n1 - 2, -1, -1):
+        for j in range(nb):
+            f[j] = f[j] * a[j] + cf[k, j]
+            df[j] = df[j] * c[j] + cf[k, j]
+    na = 0
+    for j in range(nb):
+        fa, fc, aj, cj = f[j], df[j], a[j], c[j]
+        tj = aj - fa * (cj - aj) / (fc - fa)
+        if not (math.isfinite(tj) and tj >= aj and tj <= cj):
+            tj = 0.5 * (aj + cj)
+        out[j] = tj
+        if aj < cj:  # iterates: moved to the front
+            t[na] = tj
+            sa[na] = np.sign(fa)
+            aw[na] = aj
+            cw[na] = cj
+            at[na] = j
+            if na != j:
+                for k in range(n1):
+                    cf[k, na] = cf[k, j]
+            na += 1
     for _ in range(iters):
-        f = p[n1 - 1]
-        df = 0.0
-        for k in range(n1 - 2, -1, -1):
-            df = df * t + f
-            f = f * t + p[k]
-        if np.sign(f) == sa:
-            aw = t
-        else:
-            cw = t
-        tn = t - f / df
-        bad = not math.isfinite(tn) or tn <= min(aw, cw) or tn >= max(aw, cw)
-        if bad:
-            tn = 0.5 * (aw + cw)
-        done = f == 0.0 or abs(cw - aw) <= tol or (not bad and abs(tn - t) <= tol)
-        if f != 0.0:
-            t = tn
-        if done:
+        if na == 0:
             break
-    return t
+        for j in range(na):
+            f[j] = cf[n1 - 1, j]
+            df[j] = 0.0
+        for k in range(n1 - 2, -1, -1):
+            for j in range(na):
+                df[j] = df[j] * t[j] + f[j]
+                f[j] = f[j] * t[j] + cf[k, j]
+        w = 0
+        for j in range(na):
+            fj, tj = f[j], t[j]
+            if np.sign(fj) == sa[j]:
+                aw[j] = tj
+            else:
+                cw[j] = tj
+            tn = tj - fj / df[j]
+            bad = not math.isfinite(tn) or tn <= min(aw[j], cw[j]) or tn >= max(aw[j], cw[j])
+            if bad:
+                tn = 0.5 * (aw[j] + cw[j])
+            done = fj == 0.0 or abs(cw[j] - aw[j]) <= tol or (not bad and abs(tn - tj) <= tol)
+            if fj != 0.0:
+                tj = tn
+            out[at[j]] = tj
+            if not done:
+                t[w] = tj
+                sa[w] = sa[j]
+                aw[w] = aw[j]
+                cw[w] = cw[j]
+                at[w] = at[j]
+                if w != j:
+                    for k in range(n1):
+                        cf[k, w] = cf[k, j]
+                w += 1
+        na = w
 
 
 @njit(**_JIT)
@@ -114,76 +152,107 @@ def _cluster(p, n1, a, w, out_t, m):
 def roots_rows(p, T, cluster_width, newton_iters, out_i, out_t):
     """Real roots in [-1, 1] of each row of ``p (M, n+1)`` (ascending powers), as flat
     ``(out_i, out_t)[:m]`` (row, root) grouped by row; returns m. Bernstein coefficients on [0, 1] (``T``), Descartes' rule of signs,
-    de Casteljau halving depth first; brackets refined by :func:`_refine`, intervals narrower than
+    de Casteljau halving depth first; brackets refined by :func:`_refine_brackets`, a block of
+    ``_BLOCK`` rows at once, intervals narrower than
     ``cluster_width`` with two sign changes or more by :func:`_cluster`."""
     M, n1 = p.shape
     n = n1 - 1
-    pn = np.empty(n1)
     stack = np.empty((_STACK, n1))
     s_lo = np.empty(_STACK)
     s_w = np.empty(_STACK)
     cur = np.empty(n1)
+    # the block's normalised rows and its brackets: row (in the block), ends, slot in out_t
+    pb = np.empty((_BLOCK, n1))
+    cap = _BLOCK * (3 * n + 4)  # the bound of roots_in_unit_interval's output per row
+    b_cf = np.empty((n1, cap))
+    b_a = np.empty(cap)
+    b_c = np.empty(cap)
+    b_slot = np.empty(cap, dtype=np.intp)
+    w_t = np.empty(cap)
+    w_f = np.empty(cap)
+    w_df = np.empty(cap)
+    w_aw = np.empty(cap)
+    w_cw = np.empty(cap)
+    w_sa = np.empty(cap)
+    w_at = np.empty(cap, dtype=np.intp)
+    w_out = np.empty(cap)
     m = 0
-    for i in range(M):
-        m0 = m
-        scale = 0.0
-        for k in range(n1):
-            scale = max(scale, abs(p[i, k]))
-        if not scale > 0:
-            continue
-        for k in range(n1):
-            pn[k] = p[i, k] / scale
-        for j in range(n1):  # Bernstein coefficients: independent sums, each in the order of the powers
-            stack[0, j] = 0.0
-        for k in range(n1):
-            for j in range(n1):
-                stack[0, j] += pn[k] * T[k, j]
-        if stack[0, 0] == 0.0:
-            out_t[m] = -1.0
-            m += 1
-        if stack[0, n] == 0.0:
-            out_t[m] = 1.0
-            m += 1
-        s_lo[0] = 0.0
-        s_w[0] = 1.0
-        top = 1
-        while top > 0:
-            top -= 1
-            lo = s_lo[top]
-            width = s_w[top]
-            v = 0
-            for k in range(n):
-                if (stack[top, k] >= 0.0) != (stack[top, k + 1] >= 0.0):
-                    v += 1
-            if v == 1:
-                out_t[m] = _refine(pn, n1, lo * 2.0 - 1.0, (lo + width) * 2.0 - 1.0, newton_iters, 1e-11)
-                m += 1
-                continue
-            if v < 2:
-                continue
-            if width <= cluster_width:
-                m = _cluster(pn, n1, lo * 2.0 - 1.0, width * 2.0, out_t, m)
-                continue
-            # halves: the right one goes to slot top + 1, the left one overwrites slot top
+    for s in range(0, M, _BLOCK):
+        nbk = 0
+        for r in range(min(_BLOCK, M - s)):
+            i = s + r
+            m0 = m
+            scale = 0.0
             for k in range(n1):
-                cur[k] = stack[top, k]
-            right = top + 1
-            stack[right, n] = cur[n]
-            for k in range(1, n1):
-                for j in range(n1 - k):
-                    cur[j] = 0.5 * (cur[j] + cur[j + 1])
-                stack[top, k] = cur[0]
-                stack[right, n - k] = cur[n - k]
-            half = 0.5 * width
-            if stack[top, n] == 0.0:  # a zero exactly at the split point is a root of its own
-                out_t[m] = _refine(pn, n1, (lo + half) * 2.0 - 1.0, (lo + half) * 2.0 - 1.0, newton_iters, 1e-11)
+                scale = max(scale, abs(p[i, k]))
+            if not scale > 0:
+                continue
+            for k in range(n1):
+                pb[r, k] = p[i, k] / scale
+            for j in range(n1):  # Bernstein coefficients: independent sums, each in the order of the powers
+                stack[0, j] = 0.0
+            for k in range(n1):
+                for j in range(n1):
+                    stack[0, j] += pb[r, k] * T[k, j]
+            if stack[0, 0] == 0.0:
+                out_t[m] = -1.0
                 m += 1
-            s_lo[right] = lo + half
-            s_w[right] = half
-            s_w[top] = half
-            top += 2
-        for k in range(m0, m):
-            out_i[k] = i
+            if stack[0, n] == 0.0:
+                out_t[m] = 1.0
+                m += 1
+            s_lo[0] = 0.0
+            s_w[0] = 1.0
+            top = 1
+            while top > 0:
+                top -= 1
+                lo = s_lo[top]
+                width = s_w[top]
+                v = 0
+                for k in range(n):
+                    if (stack[top, k] >= 0.0) != (stack[top, k + 1] >= 0.0):
+                        v += 1
+                if v == 1:  # a bracket: refined with the block's others below
+                    for k in range(n1):
+                        b_cf[k, nbk] = pb[r, k]
+                    b_a[nbk] = lo * 2.0 - 1.0
+                    b_c[nbk] = (lo + width) * 2.0 - 1.0
+                    b_slot[nbk] = m
+                    nbk += 1
+                    m += 1
+                    continue
+                if v < 2:
+                    continue
+                if width <= cluster_width:
+                    m = _cluster(pb[r], n1, lo * 2.0 - 1.0, width * 2.0, out_t, m)
+                    continue
+                # halves: the right one goes to slot top + 1, the left one overwrites slot top
+                for k in range(n1):
+                    cur[k] = stack[top, k]
+                right = top + 1
+                stack[right, n] = cur[n]
+                for k in range(1, n1):
+                    for j in range(n1 - k):
+                        cur[j] = 0.5 * (cur[j] + cur[j + 1])
+                    stack[top, k] = cur[0]
+                    stack[right, n - k] = cur[n - k]
+                half = 0.5 * width
+                if stack[top, n] == 0.0:  # a zero exactly at the split point is a root of its own
+                    for k in range(n1):
+                        b_cf[k, nbk] = pb[r, k]
+                    b_a[nbk] = (lo + half) * 2.0 - 1.0
+                    b_c[nbk] = b_a[nbk]
+                    b_slot[nbk] = m
+                    nbk += 1
+                    m += 1
+                s_lo[right] = lo + half
+                s_w[right] = half
+                s_w[top] = half
+                top += 2
+            for k in range(m0, m):
+                out_i[k] = i
+        _refine_brackets(b_cf, b_a, b_c, nbk, newton_iters, 1e-11, w_out, w_t, w_f, w_df, w_aw, w_cw, w_sa, w_at)
+        for j in range(nbk):
+            out_t[b_slot[j]] = w_out[j]
     return m
 
 
@@ -371,6 +440,8 @@ def monomial_map(h, exps, qmap, degree, qsum, cancelled, Q, weak):
                     mono[i] *= pw[k, ek, i]
             for o in range(n_out):
                 q = qmap[j, o]
+                if q == 0.0:  # a structural zero of the map (about 40 % of the general solver's): no term
+                    continue
                 for i in range(nb):
                     acc[o, i] += mono[i] * q
         for i in range(nb):
@@ -419,10 +490,11 @@ def general_back_substitution(h, owner, t, gmap, emap, f1, f0, A, B, C, zt, scre
         ti = t[i]
         z = zt[0] + zt[1] * ti
         rho2 = C - A * z * z - B * z
-        for j in range(15):
-            G[j] = ((hh[0] * gmap[0, j] + hh[1] * gmap[1, j]) + hh[2] * gmap[2, j]) + hh[3] * gmap[3, j]
-        for j in range(2):
-            Ec[j] = ((hh[0] * emap[0, j] + hh[1] * emap[1, j]) + hh[2] * emap[2, j]) + hh[3] * emap[3, j]
+        if i == 0 or owner[i] != owner[i - 1]:  # G's and E's coefficients: once per target (roots come grouped)
+            for j in range(15):
+                G[j] = ((hh[0] * gmap[0, j] + hh[1] * gmap[1, j]) + hh[2] * gmap[2, j]) + hh[3] * gmap[3, j]
+            for j in range(2):
+                Ec[j] = ((hh[0] * emap[0, j] + hh[1] * emap[1, j]) + hh[2] * emap[2, j]) + hh[3] * emap[3, j]
         a = _poly(G[0:5], ti)
         b = _poly(G[5:10], ti)
         c = _poly(G[10:15], ti)
