@@ -12,7 +12,9 @@
    the displacement ``t'`` between the centres. Candidate pairs of rays (same pair of families,
    close once A's ray is rotated: a corner moves by its parallax only) feed a RANSAC for ``t'``
    (two pairs give it; inliers must lie in front of both centres); each inlier pair votes for the
-   two lines that meet there in each view, and lines are matched one to one by their votes.
+   two lines that meet there in each view, and lines are matched one to one by their votes. The
+   best few displacements of the RANSAC are each verified that way (a meeting ray of A counts where
+   the lines matched to its two lines meet in B), and the best verified one is kept.
 
 The matched families and lines then go through :func:`catadioptric.pose.relative_pose` with the
 ends known (the assignment's signs).
@@ -149,8 +151,10 @@ def _crossings(view, est: dict, fam_of: dict):
 
 def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma_px: float = 1.0, seed: int = 0,
                 trials: int = 2000, neighbours: int = 4, max_parallax_deg: float = 45.0,
-                c2: float = 9.0) -> LineMatch:
-    """Match the lines of the two views for one family assignment (module docstring)."""
+                c2: float = 9.0, verify: int = 8, verify_apart_deg: float = 2.0) -> LineMatch:
+    """Match the lines of the two views for one family assignment (module docstring). ``verify``:
+    the number of RANSAC displacements, best first and at least ``verify_apart_deg`` apart, that are
+    each refined and verified by the one-to-one matching of the lines; the best verified one wins."""
     R = match.R
     xa, la, pa = _crossings(view_a, ea, {k: k for k in ea})
     xb, lb, pb = _crossings(view_b, eb, {b: a for b, (a, _) in match.mapping.items()})
@@ -210,44 +214,60 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
         return best
 
     costs = np.concatenate([per_crossing_cost(T[c:c + 256])[0] for c in range(0, len(T), 256)])
-    t = T[int(np.argmin(costs))]
-    for _ in range(5):  # least squares on the inlier pairs
-        ks = np.array(list(best_pairs(t).values()), dtype=int)
-        if len(ks) < 2:
-            break
-        t_new = np.linalg.eigh(A[ks].T @ A[ks])[1][:, 0]
-        t = t_new if t_new @ t >= 0 else -t_new
-    best_j = best_pairs(t)
-    votes: dict = {}
-    for i, k in best_j.items():
-        for a_line, b_line in zip(la[i], lb[cj[k]]):
-            votes[(int(a_line), int(b_line))] = votes.get((int(a_line), int(b_line)), 0) + 1
-    pairs, used_a, used_b = [], set(), set()
-    for (a_line, b_line), v in sorted(votes.items(), key=lambda kv: -kv[1]):
-        if v < 2 or a_line in used_a or b_line in used_b:
-            continue
-        pairs.append((a_line, b_line))
-        used_a.add(a_line)
-        used_b.add(b_line)
-    # verified: a meeting ray of A counts only where the lines matched to its two lines meet in B, on
-    # its epipolar plane and in front of both centres (chance agreements of a wrong rotation spread
-    # over many pairs of lines and do not survive the one-to-one matching of the lines)
-    to_b = dict(pairs)
     b_cross = {(int(l1), int(l2)): j for j, (l1, l2) in enumerate(lb)}
-    vi, vj = [], []
-    for i, (l1, l2) in enumerate(la):
-        j = b_cross.get((to_b.get(int(l1), -1), to_b.get(int(l2), -1)))
-        if j is not None:
-            vi.append(i)
-            vj.append(j)
-    n_ok, cost_v = 0, c2 * len(xa)
-    if vi:
-        P, Q = ra[vi], xb[vj]
-        Av = np.cross(P, Q)
-        Av /= np.maximum(np.linalg.norm(Av, axis=1), 1e-300)[:, None]
-        _, inl = _costs(Av, P, Q, t[None], thr, c2, min_parallax=3.0 * thr)
-        r2 = _residuals2(Av, t[None], thr)[0]
-        ok = inl[0]
-        n_ok = int(ok.sum())
-        cost_v = float(np.sum(r2[ok]) + c2 * (len(xa) - n_ok))
-    return LineMatch(pairs, t, cost_v, n_ok, len(xa))
+
+    def verified(t):
+        """Least squares on ``t``'s inlier pairs, lines matched one to one by the votes of the
+        meeting rays, and the verified cost (below)."""
+        for _ in range(5):  # least squares on the inlier pairs
+            ks = np.array(list(best_pairs(t).values()), dtype=int)
+            if len(ks) < 2:
+                break
+            t_new = np.linalg.eigh(A[ks].T @ A[ks])[1][:, 0]
+            t = t_new if t_new @ t >= 0 else -t_new
+        best_j = best_pairs(t)
+        votes: dict = {}
+        for i, k in best_j.items():
+            for a_line, b_line in zip(la[i], lb[cj[k]]):
+                votes[(int(a_line), int(b_line))] = votes.get((int(a_line), int(b_line)), 0) + 1
+        pairs, used_a, used_b = [], set(), set()
+        for (a_line, b_line), v in sorted(votes.items(), key=lambda kv: -kv[1]):
+            if v < 2 or a_line in used_a or b_line in used_b:
+                continue
+            pairs.append((a_line, b_line))
+            used_a.add(a_line)
+            used_b.add(b_line)
+        # verified: a meeting ray of A counts only where the lines matched to its two lines meet in B, on
+        # its epipolar plane and in front of both centres (chance agreements of a wrong rotation spread
+        # over many pairs of lines and do not survive the one-to-one matching of the lines)
+        to_b = dict(pairs)
+        vi, vj = [], []
+        for i, (l1, l2) in enumerate(la):
+            j = b_cross.get((to_b.get(int(l1), -1), to_b.get(int(l2), -1)))
+            if j is not None:
+                vi.append(i)
+                vj.append(j)
+        n_ok, cost_v = 0, c2 * len(xa)
+        if vi:
+            P, Q = ra[vi], xb[vj]
+            Av = np.cross(P, Q)
+            Av /= np.maximum(np.linalg.norm(Av, axis=1), 1e-300)[:, None]
+            _, inl = _costs(Av, P, Q, t[None], thr, c2, min_parallax=3.0 * thr)
+            r2 = _residuals2(Av, t[None], thr)[0]
+            ok = inl[0]
+            n_ok = int(ok.sum())
+            cost_v = float(np.sum(r2[ok]) + c2 * (len(xa) - n_ok))
+        return LineMatch(pairs, t, cost_v, n_ok, len(xa))
+
+    # the RANSAC cost counts chance agreements of pairs of meeting rays, which the one-to-one
+    # matching of the lines removes: it can rank a wrong displacement first by a hair (a 1e-14 change
+    # of the planes swapped the two on a CI pair). So the best few distinct displacements are each
+    # verified, and the best verified one is kept.
+    tops = []
+    for k in np.argsort(costs, kind="stable"):
+        if all(T[k] @ u < np.cos(np.radians(verify_apart_deg)) for u in tops):
+            tops.append(T[k])
+            if len(tops) == verify:
+                break
+    found = [verified(u) for u in tops]
+    return min(found, key=lambda m: (m.cost, -m.n_inliers))
