@@ -14,7 +14,7 @@ view of a dataset (with a report). See docs/detect.md.
 | sub-pixel edges (Canny + parabola across the edge) | `edges.py` |
 | band centres (tube edges paired) and step edges | `centres.py` |
 | chains (linking, resampling) | `chains.py` |
-| the plane model of a line's rays, distances, covariance | `planes.py` |
+| the plane model of a line's rays, distances, covariance | `catadioptric/linefit/planes.py` (shared with `fit_interpretation_plane`) |
 | line curves (MSAC along chains, merging) | `curves.py` |
 | families (voting over directions) | `families.py` |
 | the orchestration and options | `detector.py` |

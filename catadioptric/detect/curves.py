@@ -1,7 +1,7 @@
 """Line curves from chains: robust plane hypotheses along each chain (MSAC), the chain cut into
 the runs that one line explains, and runs of one line merged.
 
-Model and distances: :mod:`catadioptric.detect.planes` (the plane holding a line's rays, pixel
+Model and distances: :mod:`catadioptric.linefit.planes` (the plane holding a line's rays, pixel
 distances to first order).
 
 1. **Along a chain.** Hypotheses ``n = d_i x d_j`` from pairs of points of the chain at least
@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .planes import Rays, plane_covariance, plane_distances, refine_plane
+from ..linefit.planes import Rays, plane_covariance, plane_distances, refine_plane
 
 __all__ = ["LinePiece", "split_chain", "merge_pieces"]
 

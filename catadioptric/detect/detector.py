@@ -13,7 +13,7 @@ from .curves import line_covariance, merge_pieces, order_along, split_chain
 from .edges import subpixel_edges
 from .families import group_families
 from .image import DENOISE_MODES, denoise, luminance, noise_level, to_channels
-from .planes import pixel_rays_with_jacobian
+from ..linefit.planes import pixel_rays_with_jacobian
 from .region import mirror_region
 from .result import DetectedLines
 

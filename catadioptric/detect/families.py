@@ -1,7 +1,7 @@
 """Families of parallel lines in one view: lines grouped by direction.
 
 Each line ``i`` is known by the plane holding its rays (unit normal ``n_i``, covariance ``C_i``,
-:mod:`catadioptric.detect.planes`); a direction ``s`` is that of line ``i`` only if
+:mod:`catadioptric.linefit.planes`); a direction ``s`` is that of line ``i`` only if
 ``n_i . s = 0``, so parallel lines' planes meet along their common direction (for a central rig
 exactly; for a non-central one to the small ratio of the mirror's size to the lines' distance).
 Line ``i`` agrees with ``s`` when

@@ -7,7 +7,7 @@ import numpy as np
 from .._checks import CatadioptricError, as_float_array
 from ..cameras import CatadioptricCamera
 from ._common import _check_options, _check_uv, _rng, _scatter, _tangent_basis
-from .distances import _pixels
+from .planes import pixel_rays_with_jacobian, plane_covariance, plane_distances, refine_plane
 from .results import InterpretationPlane
 
 
@@ -51,7 +51,8 @@ def fit_interpretation_plane(cam, uv, *, f_scale: float = 1.0, ransac: bool = Tr
 
     Pixels ``uv (M, 2)`` (M >= 3). Minimises the first-order image distance of each pixel
     to the plane's image, ``|n . d_j| / |Jd_j^T n|`` (``d_j`` the pixel's ray direction,
-    ``Jd_j`` its derivative by the pixel), by reweighted eigenvector iterations, after
+    ``Jd_j`` its derivative by the pixel; the model of :mod:`catadioptric.linefit.planes`), by
+    reweighted eigenvector iterations, after
     RANSAC over pairs of pixels (``n = d_1 x d_2``). ``normal_cov`` from the same
     linearisation (sigma from the residuals unless ``pixel_sigma`` is given). Two or
     more parallel lines give their direction as the common normal of their planes.
@@ -66,74 +67,49 @@ def fit_interpretation_plane(cam, uv, *, f_scale: float = 1.0, ransac: bool = Tr
     uv = _check_uv(uv, "uv", 3)
     f_scale, pixel_sigma, inlier_threshold = _check_options("linear", f_scale, pixel_sigma, inlier_threshold)
     rng = _rng(seed)
-    px, valid = _pixels(cam, uv)
     # a pixel at the edge of the mirror's image has no ray derivative (a neighbour misses the mirror)
-    valid = valid & np.all(np.isfinite(px.Jd), axis=(-2, -1)) & np.all(np.isfinite(px.d), axis=-1)
+    rays = pixel_rays_with_jacobian(cam, uv)
+    valid = rays.ok
     if int(valid.sum()) < 3:
         raise CatadioptricError(f"uv: expected at least 3 pixels that see the world, got {int(valid.sum())}")
-    d, Jd = px.d[valid], px.Jd[valid]
-
-    def dist(n):  # (H, M) first-order pixel distances to planes with unit normals n (H, 3)
-        num = np.abs(n @ d.T)
-        den = np.linalg.norm(np.einsum("mki,hk->hmi", Jd, n), axis=-1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.where(den > 0, num / den, np.inf)
-
+    rays = rays.take(valid)
     thr = inlier_threshold if inlier_threshold is not None else (
         3.5 * pixel_sigma if pixel_sigma is not None else 3.0 * f_scale)
-    M = len(d)
+    M = len(rays.d)
     inl = np.ones(M, dtype=bool)
     if ransac and M > 3:
         best, best_cost = None, np.inf
         for _ in range(int(np.ceil(max_trials / 64))):
             idx = np.argsort(rng.random((64, M)), axis=1)[:, :2]
-            n = np.cross(d[idx[:, 0]], d[idx[:, 1]])
+            n = np.cross(rays.d[idx[:, 0]], rays.d[idx[:, 1]])
             nn = np.linalg.norm(n, axis=-1)
             n = n[nn > 1e-12] / nn[nn > 1e-12, None]
             if len(n) == 0:
                 continue
-            cost = np.sum(np.minimum(dist(n) ** 2, thr**2), axis=1)
+            cost = np.sum(np.minimum(plane_distances(n, rays) ** 2, thr**2), axis=1)
             j = int(np.argmin(cost))
             if cost[j] < best_cost:
                 best, best_cost = n[j], cost[j]
         if best is not None:
-            inl = dist(best[None])[0] <= thr
+            inl = plane_distances(best, rays) <= thr
             if inl.sum() < 3:
                 inl = np.ones(M, dtype=bool)
-    def refine(inl):
-        w, n = np.ones(M), None
-        for _ in range(50):
-            A = np.einsum("m,mi,mj->ij", w * inl, d, d)
-            n_new = np.linalg.eigh(A)[1][:, 0]
-            if n is not None and n_new @ n < 0:
-                n_new = -n_new
-            w = 1.0 / np.maximum(np.linalg.norm(np.einsum("mki,k->mi", Jd, n_new), axis=-1), 1e-300) ** 2
-            done = n is not None and np.linalg.norm(n_new - n) < 1e-14
-            n = n_new
-            if done:
-                break
-        return n, w
-
-    n, w = refine(inl)
+    n = refine_plane(rays.take(inl), iters=50, tol=1e-14)
     if ransac:  # inliers of the refined plane (threshold from a robust sigma unless given)
-        r = dist(n[None])[0]
+        r = plane_distances(n, rays)
         thr2 = thr
         if inlier_threshold is None and pixel_sigma is None:
             thr2 = 3.0 * max(f_scale, 1.2 * float(np.median(r[inl])) / 0.6745)
         new = r <= thr2
         if new.sum() >= 3 and not np.array_equal(new, inl):
             inl = new
-            n, w = refine(inl)
-    r = dist(n[None])[0]
-    e1, e2 = _tangent_basis(n)
-    E = np.stack([e1, e2], axis=1)
-    # residual_j = (n . d_j) sqrt(w_j): derivative by the tangent coordinates of n is sqrt(w_j) d_j . e_k
-    Jt = (d[inl] @ E) * np.sqrt(w[inl])[:, None]
+            n = refine_plane(rays.take(inl), iters=50, tol=1e-14)
+    r = plane_distances(n, rays)
     k = int(inl.sum())
     dof = k - 2
     rss = float(np.sum(r[inl] ** 2))
     sigma = pixel_sigma if pixel_sigma is not None else (float(np.sqrt(rss / dof)) if dof > 0 else float("nan"))
-    cov = E @ np.linalg.pinv(Jt.T @ Jt) @ E.T * sigma**2
+    cov = plane_covariance(n, rays.take(inl), sigma)
     full = _scatter(valid, r, np.inf, len(uv))
     return InterpretationPlane(normal=n, viewpoint=cam.viewpoint, normal_cov=cov,
                                rms=float(np.sqrt(np.mean(r[inl] ** 2))), distances=full,
