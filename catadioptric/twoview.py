@@ -45,7 +45,7 @@ def _family_map(pose) -> dict:
 
 def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_options: dict | None = None,
                               min_pixels: int = 30, max_rotation_deg: float | None = None, decisive: float = 25.0,
-                              seed: int = 0) -> ImagePairPose:
+                              decisive_matching: float = 60.0, seed: int = 0) -> ImagePairPose:
     """The relative pose of two views from their images alone.
 
     ``image_a``, ``image_b``: arrays (RGB or grey; uint8, uint16 or float in [0, 1]) taken by
@@ -53,6 +53,7 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
     :func:`catadioptric.detect.detect_lines`. ``min_pixels``: shortest line used by the pose.
     ``max_rotation_deg``: a prior on the motion (see :func:`catadioptric.pose.relative_pose`):
     without it the symmetric answers of a Manhattan scene usually leave the result ``ambiguous``.
+    ``decisive``, ``decisive_matching``: see :func:`catadioptric.pose.relative_pose`.
     Raises :class:`CatadioptricError` naming the cause when a view has fewer than two families.
     """
     from .detect import detect_lines
@@ -77,7 +78,8 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
                 f"image {name}: expected at least 2 families of parallel lines, found {len(d.families)} "
                 f"({len(d)} lines detected, {int(np.sum(d.family >= 0))} in a family, {len(v.uv)} of them with "
                 f"{min_pixels} pixels or more)")
-    pose = relative_pose(views[0], views[1], seed=seed, decisive=decisive, max_rotation_deg=max_rotation_deg)
+    pose = relative_pose(views[0], views[1], seed=seed, decisive=decisive, max_rotation_deg=max_rotation_deg,
+                         decisive_matching=decisive_matching)
     t2 = time.perf_counter()
     return ImagePairPose(pose, tuple(dets), _family_map(pose),
                          {"detect": t1 - t0, "pose": t2 - t1, "total": t2 - t0})
@@ -176,7 +178,7 @@ def _run(args) -> int:
     opts = {} if args.denoise is None else {"denoise": args.denoise}
     res = relative_pose_from_images(images[0], images[1], cam_a, cam_b, detect_options=opts,
                                     min_pixels=args.min_pixels, max_rotation_deg=args.max_rotation,
-                                    decisive=args.decisive)
+                                    decisive=args.decisive, decisive_matching=args.decisive_matching)
     os.makedirs(args.out, exist_ok=True)
     summary = image_pair_summary(res) | {"images": [os.path.abspath(args.image_a), os.path.abspath(args.image_b)],
                                          "rig": [args.rig, args.rig_b or args.rig]}
@@ -215,6 +217,9 @@ def register(sub) -> None:
     p.add_argument("--min-pixels", type=positive_int, default=30, help="shortest line used, pixels (default 30)")
     p.add_argument("--decisive", type=positive_float, default=25.0,
                    help="margin (chi-square units) the best answer needs over the next (default 25)")
+    p.add_argument("--decisive-matching", type=positive_float, default=60.0,
+                   help="margin the best matching of the two images' families and lines needs over the next "
+                        "different one (default 60: chance agreements of the matching, docs/relative_pose.md)")
     p.add_argument("--denoise", choices=["auto", "nlmeans", "bilateral", "none"],
                    help="denoising before the edges (default auto)")
     p.set_defaults(func=_run)

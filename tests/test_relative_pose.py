@@ -204,6 +204,32 @@ def test_without_labels_families_and_lines_are_matched_by_the_geometry():
                       ends={"a1": (np.eye(3)[0], np.eye(3)[0])})
 
 
+def test_a_barely_fixed_family_does_not_discard_the_right_assignment():
+    """Family matching without labels: a family of B whose direction is barely fixed (two nearly
+    parallel lines, 20 degrees of standard error) reaches a family of A that a precise family of B
+    already takes. The precise pair keeps it and the vague family stays unmapped; the assignment is
+    kept (it was discarded whole, and a wrong one of two families won)."""
+    from types import SimpleNamespace
+
+    from catadioptric.pose.matching import family_matches
+    from scipy.spatial.transform import Rotation
+
+    R = Rotation.from_rotvec([0.05, -0.02, 0.3]).as_matrix()
+    dirs = np.array([[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]])
+    small = np.radians(0.05) ** 2 * np.eye(3)
+
+    def est(s, var):
+        s = s / np.linalg.norm(s)
+        return SimpleNamespace(direction=s, cov=var * (np.eye(3) - np.outer(s, s)))
+
+    ea = {f"a{i}": est(d, small[0, 0]) for i, d in enumerate(dirs)}
+    eb = {f"b{i}": est(R @ d, small[0, 0]) for i, d in enumerate(dirs)}
+    eb["vague"] = est(R @ np.array([1.0, 0.3, 0.0]), np.radians(20.0) ** 2)
+    best = family_matches(ea, eb)[0]
+    assert best.mapping == {"b0": ("a0", 1.0), "b1": ("a1", 1.0), "b2": ("a2", 1.0)}
+    assert rotation_angle_deg(best.R @ R.T) < 0.01
+
+
 def test_a_motion_prior_rules_out_the_symmetric_answers():
     """Two orthogonal families: the half-turn fits the directions exactly. A prior on the turn
     (``max_rotation_deg``, views a short walk apart) leaves the right answer; a prior the true turn

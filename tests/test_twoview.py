@@ -38,6 +38,20 @@ def test_images_alone_give_the_rotation_with_a_motion_prior(street):
     assert _angle(res.pose.t, t_gt) < 10.0
 
 
+def test_matching_without_labels_has_its_own_margin(street):
+    """The margin the matching of the two images' families and lines needs (``decisive_matching``,
+    above ``decisive``: its cost counts chance agreements) decides the verdict: the same answer
+    is reported ambiguous, every candidate listed, when the bar is above its margin."""
+    _, a, b, R_gt, _ = street
+    res = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0,
+                                    decisive_matching=200.0)
+    assert res.pose.margin >= 60.0
+    assert res.pose.ambiguous == (res.pose.margin < 200.0)
+    assert rotation_angle_deg(res.pose.R @ R_gt.T) < 0.5
+    if res.pose.ambiguous:
+        assert len(res.pose.candidates) >= 2
+
+
 def test_without_a_prior_the_answer_is_right_or_reported_ambiguous(street):
     _, a, b, R_gt, _ = street
     res = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"])

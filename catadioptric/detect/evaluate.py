@@ -16,7 +16,11 @@ For a dataset view (:class:`catadioptric.DatasetView`): each labelled line's vis
   label-shown curves give the detector's accuracy (pixel distances: median, rms).
 * **Families**: the true families of the view are those with at least two labelled lines of
   ``min_label_pixels``; a detected family matches a true one when the angle between their
-  directions (either sign) is at most ``max(angle_deg, sigmas x its standard error)``. Precision:
+  directions (either sign) is at most ``max(angle_deg, sigmas x its standard error)``
+  (``true_family``: a test of its direction). It *is* the true family of more than half of its
+  lines that match labelled lines (``members_family``, ``members_share``: a test of its lines,
+  whatever its direction's bias), none if no family has that many; when fewer than two of its
+  lines match labelled lines, its direction decides (``true_family``). Precision:
   detected families that match a true one; recall: true families matched by a detected one
   (``family_recall``; ``family_recall_3`` over the true families with three lines or more).
   Line assignment: the fraction of the detected lines assigned to a family whose matched true
@@ -148,6 +152,18 @@ def evaluate_view(det, view, *, tolerance: float = 1.5, min_label_pixels: int = 
         tol = max(angle_deg, sigmas * fam.std_deg)
         det_match.append({"true_family": best if best_a <= tol else None, "angle_deg": best_a, "tolerance_deg": tol,
                           "lines": len(fam.lines), "pixels": fam.pixels})
+    # which family each detected family is, by its lines: the true family of most of its lines that
+    # match a labelled line (a family whose direction is biased beyond the tolerance is still that
+    # family; one whose lines come from several families, e.g. the horizon's, is none)
+    for fam, m in zip(det.families, det_match):
+        fams = [truth[match[i]]["family"] for i in fam.lines if match[i] >= 0]
+        top = np.bincount(fams).argmax() if fams else None
+        share = fams.count(top) / len(fams) if fams else 0.0
+        if len(fams) >= 2:
+            m["members_family"] = int(top) if share > 0.5 else None
+        else:  # its lines match no labelled line (markings thinner than a pixel): its direction decides
+            m["members_family"] = m["true_family"]
+        m["members_share"] = share
     matched_true = {m["true_family"] for m in det_match if m["true_family"] is not None}
     res["families_true"] = present
     res["families_detected"] = det_match

@@ -293,7 +293,7 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, s
 def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = None, seed=0, f_scale: float = 1.0,
                   pixel_sigma: float | None = None, decisive: float = 25.0, max_pixels: int | None = 40,
                   min_families: int = 2, max_rotation_deg: float | None = None,
-                  model_error_px: float = 0.0) -> RelativePose:
+                  model_error_px: float = 0.0, decisive_matching: float = 60.0) -> RelativePose:
     """The relative pose ``x_B = R x_A + t`` of two views from the lines they see.
 
     ``view_a``, ``view_b``: :class:`ViewLines`. ``ends``: ``{family: (hint_a, hint_b)}``, for
@@ -308,7 +308,12 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
     rather than by the lines, and the notes say so. ``model_error_px``: the camera model's own
     error in pixels (e.g. the rms of the best central approximation of a non-central rig): an
     error the pixels of a line share, added to the planes' covariances so that a model that does
-    not fit exact pixels is not trusted beyond its own precision. Raises :class:`CatadioptricError` naming the
+    not fit exact pixels is not trusted beyond its own precision. ``decisive_matching``: when
+    nothing is matched across the views (no ``line_id``: each image's own detections), the margin
+    the best assignment of families and lines needs over the next different answer (at least
+    ``decisive``): the matching's cost counts meeting points that agree by chance, and on the
+    relative-pose benchmark wrong assignments won by 25.6 to 51.1 chi-square units
+    (docs/relative_pose.md, "Without labels"). Raises :class:`CatadioptricError` naming the
     cause when fewer than ``min_families`` families are seen in both views, or when no candidate
     is within ``max_rotation_deg``.
     """
@@ -317,7 +322,7 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
     # every linear solve here is small: a multithreaded BLAS only fights other work for the cores
     with threadpool_limits(1):
         return _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families,
-                              max_rotation_deg, model_error_px)
+                              max_rotation_deg, model_error_px, decisive_matching)
 
 
 def _within_prior(cands, max_rotation_deg, what):
@@ -333,11 +338,12 @@ def _within_prior(cands, max_rotation_deg, what):
 
 
 def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families,
-                   max_rotation_deg=None, model_error_px=0.0):
+                   max_rotation_deg=None, model_error_px=0.0, decisive_matching=60.0):
     if not isinstance(view_a, ViewLines) or not isinstance(view_b, ViewLines):
         raise CatadioptricError(f"view_a, view_b: expected ViewLines, got {type(view_a).__name__} and "
                                 f"{type(view_b).__name__}")
     decisive = as_scalar(decisive, "decisive", positive=True)
+    decisive_matching = as_scalar(decisive_matching, "decisive_matching", positive=True)
     f_scale = as_scalar(f_scale, "f_scale", positive=True)
     if pixel_sigma is not None:
         pixel_sigma = as_scalar(pixel_sigma, "pixel_sigma", positive=True)
@@ -354,7 +360,7 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
             raise CatadioptricError("ends: the ends of families can only be given for families matched across "
                                     "the views; these views' lines carry no line_id (nothing is matched)")
         return _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families,
-                          max_rotation_deg, model_error_px)
+                          max_rotation_deg, model_error_px, decisive_matching)
     fa, fb = view_a.families(), view_b.families()
     common = [k for k in fa if k in fb]
     if ends is not None:
@@ -459,7 +465,7 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
 
 
 def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families, max_rotation_deg,
-               model_error_px=0.0):
+               model_error_px=0.0, decisive_matching=60.0):
     """Relative pose when nothing is matched across the views (lines from each image alone): the
     family assignments a rotation allows (:func:`~catadioptric.pose.matching.family_matches`), for
     each the lines matched by where they meet (:func:`~catadioptric.pose.matching.match_lines`),
@@ -506,7 +512,7 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
                                 None if lm.t is None else lm.t, score, m.cost, None, lm) for score, m, lm in scored]
     res.candidates[0] = Candidate(res.candidates[0].signs, res.R, res.t, best_score, best.cost, res.cov, lines)
     res.margin = float(margin)
-    res.ambiguous = bool(margin < decisive)
+    res.ambiguous = bool(margin < max(decisive, decisive_matching))
     prior = "" if max_rotation_deg is None else f" (within the prior max_rotation_deg = {max_rotation_deg})"
     res.notes = [(f"families and lines matched without labels: {len(best.mapping)} families, {len(lines.pairs)} "
                   f"lines ({lines.n_inliers} of {lines.n_crossings} meeting points of A found in B); "

@@ -244,6 +244,8 @@ def aggregate_images(spec: dict, results: list, image_results: list) -> dict:
                     "runs": len(runs), "failed": len(runs) - len(ok), "ambiguous": sum(x["ambiguous"] for x in ok),
                     "same_families": float(np.mean([x["same_families"] for x in ok])) if ok else None,
                     "families_right": float(np.mean([x["families_right"] for x in ok])) if ok else None,
+                    "same_families_direction": _share(ok, "same_families_direction"),
+                    "families_right_direction": _share(ok, "families_right_direction"),
                     "families_recall": _q([x["families_recall"] for x in ok]),
                     "rotation_deg": _q([x["rotation_error_deg"] for x in clear]),
                     "rotation_deg_all": _q([x["rotation_error_deg"] for x in ok]),
@@ -258,6 +260,13 @@ def aggregate_images(spec: dict, results: list, image_results: list) -> dict:
     return out
 
 
+def _share(runs, key):
+    """The fraction of ``runs`` whose ``key`` is true (None without runs, or for results written before
+    the key existed)."""
+    x = [r[key] for r in runs if key in r]
+    return float(np.mean(x)) if x else None
+
+
 def images_markdown(spec: dict, agg_im: dict, overlays: dict) -> str:
     """The report's section on the image-only path."""
     priors = [_prior_key(p) for p in (None, *spec["images"]["max_rotation_deg"])]
@@ -267,8 +276,11 @@ def images_markdown(spec: dict, agg_im: dict, overlays: dict) -> str:
          "families detected in each beauty image (docs/detect.md), families and lines matched across the views "
          "and the pose estimated without any label; the labels only score it "
          "(catadioptric.validate.image_pairs). *Detection*: means over the views of the labelled pixels recovered "
-         "and of the detected families' precision and recall. *Same families*: the pairs whose matched families "
-         "are all right (same true family, right end) and cover every family the label path uses. Each prior "
+         "and of the detected families' precision and recall (a detected family counts when its direction is "
+         "within max(1 degree, 3 standard errors) of a true one). *Same families*: the pairs whose matched "
+         "families are all right (same true family, right end) and cover every family the label path uses (two "
+         "labelled lines of the minimum length in each view); which true family a detected family is: that of "
+         "most of its lines; *directions too*: and its direction within the detection's tolerance. Each prior "
          "`max_rotation_deg` rules out candidates that turn by more (the views here turn by at most "
          f"{max(e['turn_deg_max'] for e in agg_im.values()):.1f} degrees); `none`: no prior.", "",
          md_table(["configuration / renderer", "pairs", "recovered", "family precision", "family recall",
@@ -280,12 +292,14 @@ def images_markdown(spec: dict, agg_im: dict, overlays: dict) -> str:
         for p in priors:
             q = e["priors"][p]
             rows.append([k, p, q["runs"], q["failed"], q["ambiguous"], q["over_10deg_unflagged"],
-                         "-" if q["same_families"] is None else f"{q['same_families']:.2f}",
-                         "-" if q["families_right"] is None else f"{q['families_right']:.2f}",
+                         *("-" if q.get(c) is None else f"{q[c]:.2f}"
+                           for c in ("same_families", "families_right", "same_families_direction",
+                                     "families_right_direction")),
                          _fmt(q["rotation_deg"]), _fmt(q["translation_m"]), _fmt(q["translation_direction_deg"])])
     L += ["### Pose from the images", "", "Errors over the answered (not ambiguous) pairs.", "",
           md_table(["configuration / renderer", "prior (deg)", "pairs", "failed", "ambiguous",
-                    "> 10 deg off, not flagged", "same families", "matched families all right", "rotation (deg)",
+                    "> 10 deg off, not flagged", "same families", "matched families all right",
+                    "same families (directions too)", "all right (directions too)", "rotation (deg)",
                     "translation (m)", "translation direction (deg)"], rows), ""]
     rows = [[k, _fmt(e["priors"][priors[-1]]["rotation_deg"])] + [_fmt(e["labels_rotation_deg"][str(n)])
                                                                   for n in noises] for k, e in agg_im.items()]

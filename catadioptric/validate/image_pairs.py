@@ -10,6 +10,9 @@ Families: the label path uses every family with two or more labelled lines of ``
 both views (``families_label``). A matched family (B's detected family ``b`` to A's ``a`` with
 sign ``s``) is right when both detected families are the same true family and the answer's
 rotation turns A's direction to the same end of B's as the true rotation does (the right sign).
+Which true family a detected family is: that of most of its lines (``members_family`` of
+:func:`catadioptric.detect.evaluate_view`); the keys ending in ``_direction`` ask also that its
+direction be within the detection's direction tolerance (``true_family``).
 ``families_right``: every matched family is right;
 ``families_recall``: the fraction of ``families_label`` matched right; ``same_families``: both.
 """
@@ -26,24 +29,29 @@ __all__ = ["evaluate_image_pair"]
 
 
 def _families_check(family_map, dets, scores, R, R_gt, label_families):
-    true_a = [m["true_family"] for m in scores[0]["families_detected"]]
-    true_b = [m["true_family"] for m in scores[1]["families_detected"]]
-    rows, right_true = [], set()
-    for b, (a, s) in sorted(family_map.items()):
-        ta, tb = true_a[a], true_b[b]
-        # the estimator refits the directions (their signs are its own): the sign of the answer is
-        # the one its rotation gives to the detected directions
-        da, db = dets[0].families[a].direction, dets[1].families[b].direction
-        sign_ok = bool(((R @ da) @ db) * ((R_gt @ da) @ db) > 0)
-        ok = ta is not None and ta == tb and sign_ok
-        if ok:
-            right_true.add(ta)
-        rows.append({"family_a": a, "family_b": b, "sign": s, "true_a": ta, "true_b": tb, "sign_right": sign_ok,
-                     "right": ok})
-    recall = len(right_true & set(label_families)) / len(label_families) if label_families else None
-    right = all(r["right"] for r in rows) and bool(rows)
-    return {"matched": rows, "families_right": right, "families_recall": recall,
-            "same_families": bool(right and recall == 1.0)}
+    out = {}
+    # identity by the family's lines (``members_family``), and, stricter, by its direction too
+    # (``true_family``: within the direction tolerance of evaluate_view)
+    for suffix, key in (("", "members_family"), ("_direction", "true_family")):
+        true_a = [m[key] for m in scores[0]["families_detected"]]
+        true_b = [m[key] for m in scores[1]["families_detected"]]
+        rows, right_true = [], set()
+        for b, (a, s) in sorted(family_map.items()):
+            ta, tb = true_a[a], true_b[b]
+            # the estimator refits the directions (their signs are its own): the sign of the answer is
+            # the one its rotation gives to the detected directions
+            da, db = dets[0].families[a].direction, dets[1].families[b].direction
+            sign_ok = bool(((R @ da) @ db) * ((R_gt @ da) @ db) > 0)
+            ok = ta is not None and ta == tb and sign_ok
+            if ok:
+                right_true.add(ta)
+            rows.append({"family_a": a, "family_b": b, "sign": s, "true_a": ta, "true_b": tb, "sign_right": sign_ok,
+                         "right": ok})
+        recall = len(right_true & set(label_families)) / len(label_families) if label_families else None
+        right = all(r["right"] for r in rows) and bool(rows)
+        out |= {"matched" + suffix: rows, "families_right" + suffix: right, "families_recall" + suffix: recall,
+                "same_families" + suffix: bool(right and recall == 1.0)}
+    return out
 
 
 def evaluate_image_pair(dataset, names, *, priors=(None, 60.0), min_pixels: int = 30, detect_options=None,
