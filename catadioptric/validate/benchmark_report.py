@@ -212,6 +212,13 @@ def _prior_key(p) -> str:
     return "none" if p is None else f"{float(p):g}"
 
 
+def _share(runs, key):
+    """The fraction of ``runs`` whose ``key`` is true (None without runs, or for results written before
+    the key existed)."""
+    x = [r[key] for r in runs if key in r]
+    return float(np.mean(x)) if x else None
+
+
 def aggregate_images(spec: dict, results: list, image_results: list) -> dict:
     """The image-only path per configuration and renderer (and both renderers): detection scores
     (means over the views), family matching (fractions of pairs), rotation and translation errors
@@ -258,13 +265,6 @@ def aggregate_images(spec: dict, results: list, image_results: list) -> dict:
                 for n in spec["noise_px"]}
             out[f"{name}/{renderer}"] = e
     return out
-
-
-def _share(runs, key):
-    """The fraction of ``runs`` whose ``key`` is true (None without runs, or for results written before
-    the key existed)."""
-    x = [r[key] for r in runs if key in r]
-    return float(np.mean(x)) if x else None
 
 
 def images_markdown(spec: dict, agg_im: dict, overlays: dict) -> str:
