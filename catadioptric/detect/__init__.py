@@ -17,6 +17,7 @@ view of a dataset (with a report). See docs/detect.md.
 | the plane model of a line's rays, distances, covariance | `catadioptric/linefit/planes.py` (shared with `fit_interpretation_plane`) |
 | line curves (MSAC along chains, merging) | `curves.py` |
 | families (voting over directions) | `families.py` |
+| families of two views at once, under their rotation (the small ones one image cannot single out) | `joint_families.py` |
 | the orchestration and options | `detector.py` |
 | the result and its conversions | `result.py` |
 | scores against the labels | `evaluate.py` |

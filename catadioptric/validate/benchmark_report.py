@@ -251,6 +251,7 @@ def aggregate_images(spec: dict, results: list, image_results: list) -> dict:
                     "runs": len(runs), "failed": len(runs) - len(ok), "ambiguous": sum(x["ambiguous"] for x in ok),
                     "same_families": float(np.mean([x["same_families"] for x in ok])) if ok else None,
                     "families_right": float(np.mean([x["families_right"] for x in ok])) if ok else None,
+                    "same_families_3": _share(ok, "same_families_3"),
                     "same_families_direction": _share(ok, "same_families_direction"),
                     "families_right_direction": _share(ok, "families_right_direction"),
                     "families_recall": _q([x["families_recall"] for x in ok]),
@@ -279,7 +280,10 @@ def images_markdown(spec: dict, agg_im: dict, overlays: dict) -> str:
          "and of the detected families' precision and recall (a detected family counts when its direction is "
          "within max(1 degree, 3 standard errors) of a true one). *Same families*: the pairs whose matched "
          "families are all right (same true family, right end) and cover every family the label path uses (two "
-         "labelled lines of the minimum length in each view); which true family a detected family is: that of "
+         "labelled lines of the minimum length in each view); *3+ lines*: every matched family right and every "
+         "family with three or more labelled lines in each view matched (the families one image can single out "
+         "among its other lines; a family of two lines per view is found only with the other view, docs/"
+         "relative_pose.md); which true family a detected family is: that of "
          "most of its lines; *directions too*: and its direction within the detection's tolerance. Each prior "
          "`max_rotation_deg` rules out candidates that turn by more (the views here turn by at most "
          f"{max(e['turn_deg_max'] for e in agg_im.values()):.1f} degrees); `none`: no prior.", "",
@@ -293,12 +297,13 @@ def images_markdown(spec: dict, agg_im: dict, overlays: dict) -> str:
             q = e["priors"][p]
             rows.append([k, p, q["runs"], q["failed"], q["ambiguous"], q["over_10deg_unflagged"],
                          *("-" if q.get(c) is None else f"{q[c]:.2f}"
-                           for c in ("same_families", "families_right", "same_families_direction",
+                           for c in ("same_families", "same_families_3", "families_right", "same_families_direction",
                                      "families_right_direction")),
                          _fmt(q["rotation_deg"]), _fmt(q["translation_m"]), _fmt(q["translation_direction_deg"])])
     L += ["### Pose from the images", "", "Errors over the answered (not ambiguous) pairs.", "",
           md_table(["configuration / renderer", "prior (deg)", "pairs", "failed", "ambiguous",
-                    "> 10 deg off, not flagged", "same families", "matched families all right",
+                    "> 10 deg off, not flagged", "same families", "same families (3+ lines)",
+                    "matched families all right",
                     "same families (directions too)", "all right (directions too)", "rotation (deg)",
                     "translation (m)", "translation direction (deg)"], rows), ""]
     rows = [[k, _fmt(e["priors"][priors[-1]]["rotation_deg"])] + [_fmt(e["labels_rotation_deg"][str(n)])

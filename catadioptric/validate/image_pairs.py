@@ -14,7 +14,9 @@ Which true family a detected family is: that of most of its lines (``members_fam
 :func:`catadioptric.detect.evaluate_view`); the keys ending in ``_direction`` ask also that its
 direction be within the detection's direction tolerance (``true_family``).
 ``families_right``: every matched family is right;
-``families_recall``: the fraction of ``families_label`` matched right; ``same_families``: both.
+``families_recall``: the fraction of ``families_label`` matched right; ``same_families``: both;
+``same_families_3``: every matched family right and every family with three or more labelled lines
+of ``min_pixels`` in each view (``families_label_3``: those one image can single out) matched.
 """
 from __future__ import annotations
 
@@ -28,7 +30,7 @@ from .relative_pose import _angle_deg
 __all__ = ["evaluate_image_pair"]
 
 
-def _families_check(family_map, dets, scores, R, R_gt, label_families):
+def _families_check(family_map, dets, scores, R, R_gt, label_families, label_families_3=()):
     out = {}
     # identity by the family's lines (``members_family``), and, stricter, by its direction too
     # (``true_family``: within the direction tolerance of evaluate_view)
@@ -50,27 +52,29 @@ def _families_check(family_map, dets, scores, R, R_gt, label_families):
         recall = len(right_true & set(label_families)) / len(label_families) if label_families else None
         right = all(r["right"] for r in rows) and bool(rows)
         out |= {"matched" + suffix: rows, "families_right" + suffix: right, "families_recall" + suffix: recall,
-                "same_families" + suffix: bool(right and recall == 1.0)}
+                "same_families" + suffix: bool(right and recall == 1.0),
+                "same_families_3" + suffix: bool(right and set(label_families_3) <= right_true)}
     return out
 
 
 def evaluate_image_pair(dataset, names, *, priors=(None, 60.0), min_pixels: int = 30, detect_options=None,
-                        overlay: str | None = None) -> dict:
+                        overlay: str | None = None, joint: bool = True) -> dict:
     """Score the image-only path on the view pair ``names = (A, B)`` of ``dataset`` (a folder or a
     :class:`catadioptric.Dataset`) for each motion prior. ``overlay``: a PNG path for the pair's
-    overlay (the answer of the last prior). Returns a JSON-ready dict."""
+    overlay (the answer of the last prior). ``joint``: see
+    :func:`catadioptric.twoview.pose_from_detections`. Returns a JSON-ready dict."""
     from threadpoolctl import threadpool_limits
 
     with threadpool_limits(1):
-        return _evaluate(dataset, names, priors, min_pixels, detect_options, overlay)
+        return _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, joint)
 
 
-def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay):
+def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, joint):
     from ..dataset import Dataset
     from ..detect import detect_lines, evaluate_view
-    from ..pose import relative_pose, rotation_angle_deg
+    from ..pose import rotation_angle_deg
     from ..pose.families import rays_centre
-    from ..twoview import ImagePairPose, _family_map, pair_overlay
+    from ..twoview import pair_overlay, pose_from_detections
 
     ds = dataset if isinstance(dataset, Dataset) else Dataset(dataset)
     if len(names) != 2 or any(n not in ds.names for n in names):
@@ -83,7 +87,7 @@ def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay):
     t_detect = time.perf_counter() - t0
     scores = [evaluate_view(d, v, min_label_pixels=min_pixels) for d, v in zip(dets, (va, vb))]
     label_families = sorted(set(scores[0]["families_true"]) & set(scores[1]["families_true"]))
-    views = [d.to_view_lines(min_pixels=min_pixels) for d in dets]
+    label_families_3 = sorted(set(scores[0]["families_true_3"]) & set(scores[1]["families_true_3"]))
     out = {"views": list(names), "R_gt": R_gt, "t_gt": t_gt, "baseline_m": float(np.linalg.norm(t_gt)),
            "turn_deg": rotation_angle_deg(R_gt), "detect_seconds": t_detect,
            "detection": [{k: s[k] for k in ("recovered_fraction", "line_precision", "family_precision",
@@ -91,19 +95,23 @@ def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay):
                                             "detected_lines") if k in s}
                          | {"families_detected": len(d.families), "denoise": d.denoise}
                          for s, d in zip(scores, dets)],
-           "families_label": label_families, "runs": []}
+           "families_label": label_families, "families_label_3": label_families_3, "runs": []}
     centres = [rays_centre(c) for c in (va["camera"], vb["camera"])]
     last = None
     for prior in priors:
         rec = {"max_rotation_deg": prior}
         t1 = time.perf_counter()
         try:
-            res = relative_pose(views[0], views[1], max_rotation_deg=prior)
+            pair = pose_from_detections(dets[0], dets[1], min_pixels=min_pixels, max_rotation_deg=prior, joint=joint)
         except CatadioptricError as exc:
             rec.update({"error": str(exc), "seconds": time.perf_counter() - t1})
             out["runs"].append(rec)
             continue
-        fmap = _family_map(res)
+        res, fmap = pair.pose, pair.family_map
+        # the families found in both views at once are scored as the detected ones are
+        fdets = pair.detections
+        fscores = scores if fdets[0] is dets[0] and fdets[1] is dets[1] else \
+            [evaluate_view(d, v, min_label_pixels=min_pixels) for d, v in zip(fdets, (va, vb))]
         rec.update({"rotation_error_deg": rotation_angle_deg(res.R @ R_gt.T), "ambiguous": res.ambiguous,
                     "margin": res.margin, "metric": res.metric, "lines_matched": res.lines_matched,
                     "rotation_std_deg": res.rotation_std_deg, "translation_error_m": None,
@@ -115,9 +123,9 @@ def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay):
                 rec["translation_direction_error_deg"] = _angle_deg(res.t, t_gt)
             else:
                 rec["translation_direction_error_deg"] = _angle_deg(res.t, R_gt @ centres[0] + t_gt - centres[1])
-        rec.update(_families_check(fmap, dets, scores, res.R, R_gt, label_families))
+        rec.update(_families_check(fmap, fdets, fscores, res.R, R_gt, label_families, label_families_3))
         out["runs"].append(rec)
-        last = ImagePairPose(res, tuple(dets), fmap)
+        last = pair
     if overlay is not None and last is not None:
         from ..detect.report import write_png
 
