@@ -100,3 +100,18 @@ def test_cli_errors_are_one_line(street, tmp_path, capsys):
     assert "image B: expected at least 2 families of parallel lines, found 0" in err
     assert main(["relative-pose", img, img, "--rig", "no_such_rig", "--out", str(tmp_path / "o")]) == 2
     assert "--rig:" in capsys.readouterr().err
+
+
+def test_families_only_both_images_show(street):
+    """After a decisive answer, lines no family of one image holds are grouped in both images at
+    once under its rotation; on this pair that finds one more family, which is then matched
+    (docs/relative_pose.md, 'Families only both images show')."""
+    _, a, b, R_gt, _ = street
+    alone = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0, joint=False)
+    both = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0)
+    assert not any("both views at once" in n for n in alone.pose.notes)
+    assert any("both views at once" in n for n in both.pose.notes), both.pose.notes
+    assert len(both.family_map) == len(alone.family_map) + 1
+    assert len(both.detections[0].families) > len(alone.detections[0].families)
+    for res in (alone, both):
+        assert not res.pose.ambiguous and rotation_angle_deg(res.pose.R @ R_gt.T) < 0.5
