@@ -111,9 +111,9 @@ def _log_nfa_distinct(N, C, s, n_free, chi2_max, angle_floor_deg):
 def with_families(det, new_families, min_lines: int = 2):
     """A copy of detection ``det`` with each ``(lines, direction)`` of ``new_families`` made a new
     family (its direction refitted on its lines' planes from ``direction``), after its existing
-    families; the lines move from
-    wherever they were, and an existing family left with fewer than ``min_lines`` lines is
-    dropped. Returns ``(detection, indices of the new families)``."""
+    families (each refitted on the lines it keeps); the lines move from wherever they were, and
+    an existing family left with fewer than ``min_lines`` lines is dropped. Returns
+    ``(detection, indices of the new families)``."""
     from dataclasses import replace
 
     moved = {int(i) for ls, _ in new_families for i in ls}
