@@ -115,3 +115,13 @@ def test_families_only_both_images_show(street):
     assert len(both.detections[0].families) > len(alone.detections[0].families)
     for res in (alone, both):
         assert not res.pose.ambiguous and rotation_angle_deg(res.pose.R @ R_gt.T) < 0.5
+
+
+def test_no_families_are_looked_for_under_an_ambiguous_answer(street):
+    """Families found under a rotation that is not trusted would confirm it: when the answer is
+    ambiguous (here forced by a matching bar above its margin) nothing is added."""
+    _, a, b, _, _ = street
+    res = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0,
+                                    decisive_matching=10000.0)
+    assert res.pose.ambiguous
+    assert not any("both views at once" in n for n in res.pose.notes)

@@ -1,0 +1,110 @@
+"""Two runs of the benchmark's image-only path compared pair by pair, and what the label families
+it misses look like (docs/relative_pose.md, "Families only both images show").
+
+    .venv/bin/python tools/image_results_compare.py misses RESULTS
+    .venv/bin/python tools/image_results_compare.py compare BASE NEW [--prior 60]
+
+``RESULTS``, ``BASE``, ``NEW``: ``results_images`` folders of ``catadioptric validate benchmark
+--images`` (one JSON per pair; a run kept before a code change is a copy of that folder, which the
+benchmark reuses by its spec's fingerprint, not by the code's version: delete it to rerun).
+
+``misses``: the label families (two labelled lines of 30 pixels in both views) that the answer
+with the prior does not match right, by the number of labelled lines in the sparser view.
+``compare``: per prior, the pairs with the same families, all matched families right, ambiguous
+and wrong unflagged in each run; then the pairs where ``NEW`` found families in both views at
+once, with their rotation errors, families all right and recall before and after. Needs the
+benchmark's datasets for ``misses`` (render/out/relative_pose_benchmark/datasets).
+"""
+from __future__ import annotations
+
+import argparse
+import collections
+import json
+from pathlib import Path
+
+DATASETS = Path("render/out/relative_pose_benchmark/datasets")
+
+
+def _load(folder):
+    return {f"{p.parent.name}/{p.name}": json.loads(p.read_text()) for p in sorted(Path(folder).glob("*/*.json"))}
+
+
+def _run(r, prior):
+    runs = [x for x in r["runs"] if x["max_rotation_deg"] == prior]
+    return runs[0] if runs else None
+
+
+def misses(folder, prior):
+    from catadioptric.dataset import Dataset
+    from catadioptric.detect.evaluate import label_curves
+
+    labelled, missed = collections.Counter(), collections.Counter()
+    for key, r in _load(folder).items():
+        ds = Dataset(DATASETS / f"{r['config']}_{r['renderer']}")
+        counts = [collections.Counter(t["family"] for t in label_curves(ds[v]) if len(t["uv"]) >= 30)
+                  for v in r["views"]]
+        run = _run(r, prior)
+        if run is None or "error" in run:
+            continue
+        right = {m["true_a"] for m in run["matched"] if m["right"]}
+        for f in r["families_label"]:
+            k = min(4, counts[0][f], counts[1][f])
+            labelled[k] += 1
+            missed[k] += f not in right
+    print("lines in the sparser view | label families | not matched right")
+    for k in sorted(labelled):
+        print(f"{'4+' if k == 4 else k} | {labelled[k]} | {missed[k]}")
+
+
+def compare(base_dir, new_dir, prior):
+    base, new = _load(base_dir), _load(new_dir)
+    keys = sorted(set(base) & set(new))
+    for p in (None, prior):
+        t = collections.Counter()
+        for k in keys:
+            for tag, r in (("base", _run(base[k], p)), ("new", _run(new[k], p))):
+                if r is None or "error" in r:
+                    t[tag, "failed"] += 1
+                    continue
+                t[tag, "same families"] += r["same_families"]
+                t[tag, "all right"] += r["families_right"]
+                t[tag, "ambiguous"] += r["ambiguous"]
+                t[tag, "wrong unflagged"] += (not r["ambiguous"]) and r["rotation_error_deg"] > 10
+        print(f"prior {p}: " + ", ".join(f"{what} {t['base', what]} -> {t['new', what]}" for what in
+                                           ("same families", "all right", "ambiguous", "wrong unflagged", "failed")))
+    rows, better = [], 0
+    for k in keys:
+        b, n = _run(base[k], prior), _run(new[k], prior)
+        if n is None or "error" in n or not any("both views at once" in x for x in n["notes"]) or "error" in b:
+            continue
+        better += n["rotation_error_deg"] < b["rotation_error_deg"]
+        rows.append((k, b, n))
+        print(f"  {k}: rotation {b['rotation_error_deg']:.3f} -> {n['rotation_error_deg']:.3f} deg, all right "
+              f"{b['families_right']} -> {n['families_right']}, recall {b['families_recall']:.2f} -> "
+              f"{n['families_recall']:.2f}")
+    if rows:
+        print(f"prior {prior}: families found in both views at once in {len(rows)} pairs; rotation better in {better}; "
+              f"all right {sum(b['families_right'] for _, b, _ in rows)} -> {sum(n['families_right'] for _, _, n in rows)}; "
+              f"recall summed {sum(b['families_recall'] for _, b, _ in rows):.1f} -> "
+              f"{sum(n['families_recall'] for _, _, n in rows):.1f}")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    m = sub.add_parser("misses")
+    m.add_argument("results")
+    m.add_argument("--prior", type=float, default=60.0)
+    c = sub.add_parser("compare")
+    c.add_argument("base")
+    c.add_argument("new")
+    c.add_argument("--prior", type=float, default=60.0)
+    a = ap.parse_args()
+    if a.cmd == "misses":
+        misses(a.results, a.prior)
+    else:
+        compare(a.base, a.new, a.prior)
+
+
+if __name__ == "__main__":
+    main()
