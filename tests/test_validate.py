@@ -143,3 +143,31 @@ def test_paired_comparison_of_exact_and_central():
     assert same["exact_better"] == 0 and same["wilcoxon_p"] is None
     mixed = _paired([draw(x + (0.01 if i % 2 else -0.01), x) for i, x in enumerate(c)])
     assert mixed["wilcoxon_p"] > 0.3
+
+
+def test_benchmark_results_are_kept_by_the_code_that_made_them(tmp_path):
+    """A pair's result is reused only while the package's Python sources are unchanged: the digest
+    follows every .py file (name and bytes), not other files, and enters the pair's fingerprint."""
+    from catadioptric.validate.benchmark import _fingerprint, code_digest
+    from catadioptric.validate.benchmark_spec import load_benchmark_spec, pairs_of
+
+    pkg = tmp_path / "pkg"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "a.py").write_text("x = 1\n")
+    (pkg / "sub" / "b.py").write_text("y = 2\n")
+    d0 = code_digest(str(pkg))
+    (pkg / "notes.txt").write_text("not code")
+    assert code_digest(str(pkg)) == d0
+    (pkg / "sub" / "b.py").write_text("y = 3\n")
+    d1 = code_digest(str(pkg))
+    assert d1 != d0
+    (pkg / "sub" / "b.py").rename(pkg / "b.py")  # same bytes, another file
+    assert code_digest(str(pkg)) not in (d0, d1)
+    assert len(code_digest()) == 64
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    spec = load_benchmark_spec(os.path.join(root, "validate", "relative_pose.toml"))
+    config = spec["configs"][0]
+    pair = pairs_of(spec, config)[0]
+    for kind in ("labels", "images"):
+        assert _fingerprint(spec, config, pair, kind, d0) != _fingerprint(spec, config, pair, kind, d1)
+        assert _fingerprint(spec, config, pair, kind) == _fingerprint(spec, config, pair, kind, code_digest())

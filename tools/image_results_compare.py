@@ -5,8 +5,8 @@ it misses look like (docs/relative_pose.md, "Families only both images show").
     .venv/bin/python tools/image_results_compare.py compare BASE NEW [--prior 60]
 
 ``RESULTS``, ``BASE``, ``NEW``: ``results_images`` folders of ``catadioptric validate benchmark
---images`` (one JSON per pair; a run kept before a code change is a copy of that folder, which the
-benchmark reuses by its spec's fingerprint, not by the code's version: delete it to rerun).
+--images`` (one JSON per pair; a run kept before a code change is a copy of that folder; the
+benchmark computes a pair again when the package's code has changed, ``benchmark.code_digest``).
 
 ``misses``: the label families (two labelled lines of 30 pixels in both views) that the answer
 with the prior does not match right, by the number of labelled lines in the sparser view.

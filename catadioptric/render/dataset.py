@@ -437,11 +437,6 @@ def _run(scene, todo, workers, scheduler):
         for t in todo:
             yield render_view_files(scene, t)
         return
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed as cf_completed
+    from .._pool import imap_spawn
 
-    with ProcessPoolExecutor(max_workers=min(workers, len(todo)), mp_context=mp.get_context("spawn"),
-                             initializer=_pool_init, initargs=(scene,)) as ex:
-        futs = [ex.submit(_pool_run, t) for t in todo]
-        for f in cf_completed(futs):
-            yield f.result()
+    yield from imap_spawn(_pool_run, todo, workers, initializer=_pool_init, initargs=(scene,))

@@ -5,7 +5,8 @@ pair at every noise level and draw (resumable, one result file per pair, a proce
 Layout: the working folder ``data`` (large, not for committing) and the report folder ``out``::
 
     data/datasets/<config>_<renderer>/  the rendered views (catadioptric render format)
-    data/results/<config>/pNN.json      one pair's draws (written atomically; reruns skip them)
+    data/results/<config>/pNN.json      one pair's draws (written atomically; reruns skip them while
+                                        the spec's keys and the package's code are unchanged)
     data/results_images/<config>/pNN.json, pNN.png
                                         the image-only path on the pair (``images=True``) and its overlay
     out/report.json, report.md, *.png   the aggregate, every pair's draws included (written last)
@@ -22,7 +23,7 @@ from .._checks import CatadioptricError
 from .._io import atomic_write_json, jsonable
 from .benchmark_spec import pairs_of
 
-__all__ = ["render_benchmark", "evaluate_benchmark", "run_benchmark", "dataset_folder"]
+__all__ = ["render_benchmark", "evaluate_benchmark", "run_benchmark", "dataset_folder", "code_digest"]
 
 
 def dataset_folder(data: str, config: str, renderer: str) -> str:
@@ -67,13 +68,30 @@ _KEYS = {"labels": ("scene", "resolution", "quality", "seed", "noise_px", "draws
 _FOLDER = {"labels": "results", "images": "results_images"}
 
 
-def _fingerprint(spec: dict, config: dict, pair, kind: str = "labels") -> str:
-    d = {k: spec[k] for k in _KEYS[kind]} | {"config": config, "pair": pair.index}
+def code_digest(root: str | None = None) -> str:
+    """SHA-256 of the package's Python sources (``root``: a package folder, default this package),
+    file by file in sorted order of their relative paths. A pair's result is reused only while it
+    is unchanged: results kept from other code would otherwise be mixed into a report silently."""
+    root = root or os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    h = hashlib.sha256()
+    files = sorted(os.path.relpath(os.path.join(d, f), root).replace(os.sep, "/")
+                   for d, dirs, fs in os.walk(root) for f in fs if f.endswith(".py"))
+    for rel in files:
+        with open(os.path.join(root, rel), "rb") as f:
+            data = f.read()
+        h.update(f"{rel}\0{len(data)}\0".encode())
+        h.update(data)
+    return h.hexdigest()
+
+
+def _fingerprint(spec: dict, config: dict, pair, kind: str = "labels", code: str | None = None) -> str:
+    d = {k: spec[k] for k in _KEYS[kind]} | {"config": config, "pair": pair.index,
+                                            "code": code_digest() if code is None else code}
     return hashlib.sha256(json.dumps(jsonable(d), sort_keys=True).encode()).hexdigest()
 
 
 def _evaluate_pair(args) -> dict:
-    spec, config, pair, folder, path, fp, kind = args
+    spec, config, pair, folder, path, fp, kind, code = args
     from .relative_pose import evaluate_pair
 
     t0 = time.perf_counter()
@@ -87,24 +105,31 @@ def _evaluate_pair(args) -> dict:
                             seed=[spec["seed"], pair.index], pixels=spec["pixels"], min_pixels=spec["min_pixels"],
                             max_pixels=spec["max_pixels"])
     res.update({"config": config["name"], "rig": config["rig"], "pair": pair.index, "renderer": pair.renderer,
-                "fingerprint": fp, "seconds": time.perf_counter() - t0})
+                "fingerprint": fp, "code": code, "seconds": time.perf_counter() - t0})
     atomic_write_json(path, jsonable(res))
     return res
 
 
+def _evaluate_task(item):
+    key, args = item
+    return key, _evaluate_pair(args)
+
+
 def evaluate_benchmark(spec: dict, data: str, *, workers: int = 1, progress: bool = True,
                        kind: str = "labels") -> list[dict]:
-    """Evaluate every pair (resuming: a pair whose result file has this spec's fingerprint is
-    read back, not recomputed). ``kind``: ``"labels"`` (the line pixels and families from the
-    labels, every noise level) or ``"images"`` (the image-only path,
-    :mod:`catadioptric.validate.image_pairs`). Returns the pair results in spec order."""
+    """Evaluate every pair (resuming: a pair whose result file has this fingerprint, of the spec's
+    keys and of the package's code (:func:`code_digest`), is read back, not recomputed).
+    ``kind``: ``"labels"`` (the line pixels and families from the labels, every noise level) or
+    ``"images"`` (the image-only path, :mod:`catadioptric.validate.image_pairs`). Returns the
+    pair results in spec order."""
     if kind not in _KEYS:
         raise CatadioptricError(f"kind: expected one of {list(_KEYS)}, got {kind!r}")
     tasks, results = [], {}
+    code = code_digest()
     for config in spec["configs"]:
         for p in pairs_of(spec, config):
             path = os.path.join(data, _FOLDER[kind], config["name"], f"p{p.index:02d}.json")
-            fp = _fingerprint(spec, config, p, kind)
+            fp = _fingerprint(spec, config, p, kind, code)
             key = (config["name"], p.index)
             try:
                 with open(path) as f:
@@ -115,7 +140,8 @@ def evaluate_benchmark(spec: dict, data: str, *, workers: int = 1, progress: boo
             except (OSError, ValueError):
                 pass
             os.makedirs(os.path.dirname(path), exist_ok=True)
-            tasks.append((key, (spec, config, p, dataset_folder(data, config["name"], p.renderer), path, fp, kind)))
+            tasks.append((key, (spec, config, p, dataset_folder(data, config["name"], p.renderer), path, fp, kind,
+                                code)))
     bar = None
     if progress and tasks:
         from tqdm import tqdm
@@ -128,15 +154,12 @@ def evaluate_benchmark(spec: dict, data: str, *, workers: int = 1, progress: boo
                 if bar is not None:
                     bar.update(1)
         else:
-            import multiprocessing as mp
-            from concurrent.futures import ProcessPoolExecutor, as_completed
+            from .._pool import imap_spawn
 
-            with ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=mp.get_context("spawn")) as ex:
-                futs = {ex.submit(_evaluate_pair, a): key for key, a in tasks}
-                for f in as_completed(futs):
-                    results[futs[f]] = f.result()
-                    if bar is not None:
-                        bar.update(1)
+            for key, res in imap_spawn(_evaluate_task, tasks, workers):
+                results[key] = res
+                if bar is not None:
+                    bar.update(1)
     finally:
         if bar is not None:
             bar.close()
