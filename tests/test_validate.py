@@ -106,6 +106,12 @@ def test_benchmark_at_its_ci_size(tmp_path):
         assert all(q["over_10deg_unflagged"] == 0 for q in e["priors"].values())
     md = open(os.path.join(out, "report.md")).read()
     assert "## From the images alone (no labels)" in md and "labels, 1 px" in md
+    # each section's own table: the draws' counts per model, the selected model per noise level
+    draws_table = md.split("## Draws: failures, ambiguous answers, wrong answers")[1].split("\n## ")[0]
+    assert "| configuration | model | draws | failed |" in draws_table and "| exact | 1 |" in draws_table
+    chosen = md.split("## Selected model")[1].split("\n## ")[0]
+    assert "| configuration | 1 px |" in chosen
+    assert "| selected |" in md.split("## Rotation error (degrees)")[1].split("\n## ")[0]
 
 
 def test_noise_sweep_grows_with_noise(tmp_path):

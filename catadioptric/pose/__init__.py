@@ -16,6 +16,7 @@ between two views ``x_B = R x_A + t`` (mirror frames). Lines are Pluecker ``(s, 
 | `family_matches` | `matching.py` | each view's families (unmatched) | the assignments of B's families to A's a rotation allows |
 | `match_lines` | `matching.py` | a family assignment, each view's lines (unmatched) | lines matched where they meet, direction between the centres |
 | `relative_pose` | `relative.py` | the lines each view sees (matched by id, or not) | R, t, covariance, candidates, ambiguity verdict |
+| `choose_model` | `select.py` | the exact and the central answer of one pair | the rotation whose covariance promises less |
 
 See docs/relative_pose.md.
 """
@@ -26,6 +27,7 @@ from .central import CrossingFit, translation_direction_from_crossings
 from .families import FamilyEstimate, ViewLines, fit_view_families
 from .matching import FamilyMatch, LineMatch, family_matches, match_lines
 from .relative import Candidate, RelativePose, relative_pose
+from .select import ModelChoice, choose_model
 from .rotation import DirectionRotation, refine_rotation, rotation_angle_deg, rotation_from_directions
 from .signs import SignCandidate, sign_candidates
 from .translation import relative_translation_from_lines, translation_from_lines
@@ -35,5 +37,5 @@ __all__ = [
     "sign_candidates", "SignCandidate", "translation_from_lines", "relative_translation_from_lines",
     "refine_two_view", "TwoViewFit", "translation_direction_from_crossings", "CrossingFit",
     "ViewLines", "FamilyEstimate", "fit_view_families", "relative_pose", "RelativePose", "Candidate",
-    "family_matches", "FamilyMatch", "match_lines", "LineMatch",
+    "family_matches", "FamilyMatch", "match_lines", "LineMatch", "choose_model", "ModelChoice",
 ]

@@ -53,6 +53,11 @@ def aggregate(spec: dict, results: list) -> dict:
                     "over_10deg_unflagged": sum(r["rotation_error_deg"] > 10 for r in clear),
                     "seconds": _q([r["seconds"] for r in ok]),
                 }
+            sel = [d["selected"] for d in draws if d.get("selected")]
+            clear = [r for r in sel if not r["ambiguous"]]
+            entry["selected"] = {"draws": len(sel), "central_chosen": sum(r["model"] == "central" for r in clear),
+                                 "rotation_deg": _q([r["rotation_error_deg"] for r in clear]),
+                                 "frobenius": _q([r["frobenius_error"] for r in clear])}
             entry["paired"] = _paired(draws)
             per_noise[str(noise)] = entry
         seen = [v for r in pairs for v in r.get("seen", {}).values()]
@@ -134,7 +139,10 @@ def benchmark_markdown(spec: dict, agg: dict, results: list, command: str, timin
          "Errors are median [first quartile, third quartile] over the draws that were answered (not ambiguous). "
          "*Exact*: the non-central model (two-view refinement, metric translation). *Central*: the fair central "
          "baseline, the same pixels and estimator through the best central approximation of the rig (exact for "
-         "the central rig); its translation is a direction.", "",
+         "the central rig); its translation is a direction. *Selected*: per draw, the rotation of whichever of "
+         "the two claims the smaller deviation (`pose.choose_model`: its own covariance, the central one with its "
+         "model error; never an ambiguous answer, nor two answers more than 5 deviations apart); the labels are "
+         "not used to choose. How often the central one is chosen: section 'Selected model'.", "",
          "## What each rig sees (per view, median [quartiles] over the views)", "",
          md_table(["configuration", "rig", "pairs", "baseline (m)", "families", "lines", "pixels",
                    "families in both views"],
@@ -145,10 +153,13 @@ def benchmark_markdown(spec: dict, agg: dict, results: list, command: str, timin
                                  ("Rotation error (Frobenius norm of R - R_gt)", "frobenius", 3),
                                  ("Translation error of the exact model (metres)", "translation_m", 3),
                                  ("Translation direction error (degrees)", "translation_direction_deg", 3)):
-        models = ("exact",) if field == "translation_m" else ("exact", "central")
+        models = {"translation_m": ("exact",), "translation_direction_deg": ("exact", "central")}.get(
+            field, ("exact", "central", "selected"))
         rows = []
         for n, a in agg.items():
             for m in models:
+                if m == "selected" and "selected" not in a["noise"][str(noises[0])]:
+                    continue
                 rows.append([n, m] + [_fmt(a["noise"][str(x)][m][field], digits) for x in noises])
         L += [f"## {title}", "", md_table(["configuration", "model"] + [f"{x:g} px" for x in noises], rows), ""]
     rows = []
@@ -157,6 +168,12 @@ def benchmark_markdown(spec: dict, agg: dict, results: list, command: str, timin
             c = [a["noise"][str(x)][m] for x in noises]
             rows.append([n, m, sum(e["draws"] for e in c), sum(e["failed"] for e in c), sum(e["ambiguous"] for e in c),
                          sum(e["over_10deg_unflagged"] for e in c), _fmt(_merge([e["seconds"] for e in c]), 2)])
+    if all("selected" in a["noise"][str(x)] for a in agg.values() for x in noises):
+        chosen = [[n] + [f"{a['noise'][str(x)]['selected']['central_chosen']}/{a['noise'][str(x)]['selected']['draws']}"
+                         for x in noises] for n, a in agg.items()]
+        L += ["## Selected model", "",
+              "Per cell: the draws whose rotation comes from the central baseline, of the draws both models answered.",
+              "", md_table(["configuration"] + [f"{x:g} px" for x in noises], chosen), ""]
     L += ["## Draws: failures, ambiguous answers, wrong answers", "",
           md_table(["configuration", "model", "draws", "failed", "ambiguous", "> 10 deg off, not flagged",
                     "seconds per draw"], rows), ""]
@@ -336,13 +353,18 @@ def _plot(agg, spec, field, ylabel, models, fname_title):
     names = list(agg)
     fig, axes = plt.subplots(1, len(names), figsize=(3.3 * len(names), 3.2), dpi=110, squeeze=False)
     x = np.array(spec["noise_px"], float)
-    colors = {"exact": "tab:blue", "central": "tab:orange"}
+    colors = {"exact": "tab:blue", "central": "tab:orange", "selected": "tab:green"}
     for ax, n in zip(axes[0], names):
         for m in models:
+            if any(m not in agg[n]["noise"][str(v)] for v in spec["noise_px"]):
+                continue
             q = [agg[n]["noise"][str(v)][m][field] for v in spec["noise_px"]]
             med = np.array([np.nan if e["median"] is None else e["median"] for e in q])
             lo = np.array([np.nan if e["q1"] is None else e["q1"] for e in q])
             hi = np.array([np.nan if e["q3"] is None else e["q3"] for e in q])
+            if m == "selected":  # between the other two: its median only
+                ax.plot(x, med, "s--", color=colors[m], label=m, ms=3, lw=1)
+                continue
             ax.plot(x, med, "o-", color=colors[m], label=m, ms=4)
             ax.fill_between(x, lo, hi, color=colors[m], alpha=0.2, lw=0)
         ax.set_title(n, fontsize=9)
@@ -384,7 +406,7 @@ def write_benchmark_report(spec: dict, results: list, out: str, *, command: str,
         md += "\n" + images_markdown(spec, agg_im, shown)
     try:
         atomic_write_bytes(os.path.join(out, "rotation.png"),
-                           _plot(agg, spec, "rotation_deg", "rotation error (deg)", ("exact", "central"),
+                           _plot(agg, spec, "rotation_deg", "rotation error (deg)", ("exact", "central", "selected"),
                                  "Relative rotation error"))
         atomic_write_bytes(os.path.join(out, "translation.png"),
                            _plot(agg, spec, "translation_direction_deg", "translation direction error (deg)",

@@ -112,7 +112,7 @@ def evaluate_pair(dataset, names, *, noise_levels=(2.0,), draws: int = 1, seed=0
 
 def _evaluate_pair(dataset, names, noise_levels, draws, seed, pixels, min_pixels, max_pixels, ends, central, decisive):
     from ..dataset import Dataset
-    from ..pose import ViewLines, relative_pose
+    from ..pose import ViewLines, choose_model, relative_pose
     from ..pose.families import rays_centre
     from .observations import line_pixels
 
@@ -148,6 +148,7 @@ def _evaluate_pair(dataset, names, noise_levels, draws, seed, pixels, min_pixels
             rng = np.random.default_rng(draw_seed)
             uvs = [_draw_pixels(b, rng, noise, max_pixels) for b in base]
             rec = {"noise_px": noise, "draw": k, "seed": draw_seed}
+            answers = {}
             for label, cam_pair, cen in (("exact", cams, centres), ("central", uni, uni_centres)):
                 if label == "central" and not central:
                     continue
@@ -166,6 +167,13 @@ def _evaluate_pair(dataset, names, noise_levels, draws, seed, pixels, min_pixels
                     rec[label] = {"error": msg, "seconds": time.perf_counter() - t0}
                     continue
                 rec[label] = _record(res, R_gt, t_gt, cen[0], cen[1], time.perf_counter() - t0)
+                answers[label] = res
+            if "exact" in answers and "central" in answers:
+                pick = choose_model(answers["exact"], answers["central"])
+                rec["selected"] = {"model": pick.model, "rotation_error_deg": _rotation_error_deg(pick.R, R_gt),
+                                   "frobenius_error": float(np.linalg.norm(pick.R - R_gt)),
+                                   "rotation_std_deg": pick.rotation_std_deg, "ambiguous": pick.pose.ambiguous,
+                                   "reason": pick.reason}
             # the report's schema: the exact model's fields at the top of each draw
             exact = rec.pop("exact")
             out["draws"].append(rec | exact)
