@@ -57,7 +57,19 @@ def test_relative_pose_of_a_rendered_pair(pair, tmp_path):
     assert not d0["ambiguous"] and d0["rotation_error_deg"] < 0.05  # no added noise: exact pixels
     assert d0["families_used"] >= 3 and d0["lines_used"] >= 5
     assert os.path.getsize(os.path.join(rep, "lines.png")) > 10_000
-    assert "Reproduce:" in open(os.path.join(rep, "report.md")).read()
+    md = open(os.path.join(rep, "report.md")).read()
+    assert "Reproduce:" in md and "| selected rotation (deg) |" in md
+    # the exact and the central answer of each draw, and the one whose covariance claims less
+    for d in res["draws"]:
+        if "error" in d or "error" in d["central"]:
+            continue
+        sel = d["selected"]
+        assert sel["model"] in ("exact", "central") and sel["reason"]
+        chosen = d if sel["model"] == "exact" else d["central"]
+        assert sel["rotation_error_deg"] == chosen["rotation_error_deg"]
+        if sel["model"] == "central":
+            assert d["central"]["rotation_std_deg"] < d["rotation_std_deg"]
+        assert f"{sel['rotation_error_deg']:.3g} ({sel['model']})" in md or sel["ambiguous"]
 
 
 def test_relative_pose_errors_name_the_flag(pair, tmp_path, capsys):

@@ -189,16 +189,18 @@ def pair_markdown(res: dict, command: str) -> str:
     for d in res["draws"]:
         c = d.get("central", {})
         if "error" in d:
-            rows.append([d["noise_px"], d["draw"], "failed: " + d["error"][:100], "", "", "", "", ""])
+            rows.append([d["noise_px"], d["draw"], "failed: " + d["error"][:100], "", "", "", "", "", ""])
             continue
         t_m = "-" if d["translation_error_m"] is None else f"{d['translation_error_m']:.3g}"
         t_d = "-" if d["translation_direction_error_deg"] is None else f"{d['translation_direction_error_deg']:.3g}"
         c_r = c.get("error", "")[:60] if "error" in c else (f"{c['rotation_error_deg']:.3g}" if c else "-")
         c_t = "-" if not c or "error" in c or c["translation_direction_error_deg"] is None else \
             f"{c['translation_direction_error_deg']:.3g}"
+        sel = d.get("selected")
+        s_r = "-" if not sel or sel["ambiguous"] else f"{sel['rotation_error_deg']:.3g} ({sel['model']})"
         rows.append([d["noise_px"], d["draw"], "AMBIGUOUS" if d["ambiguous"] else f"{d['rotation_error_deg']:.3g}",
                      f"{d['frobenius_error']:.3g}", t_m, t_d, c_r + (" (ambiguous)" if c.get("ambiguous") else ""),
-                     c_t])
+                     c_t, s_r])
     seen = [[n, s["families"], s["lines"], s["pixels"], s["short_lines"]] for n, s in res["seen"].items()]
     text = [f"# Relative pose of views {A} and {B}", "",
             f"Baseline {res['baseline_m']:.2f} m; line pixels `{res['pixels']}` (lines of at least "
@@ -207,10 +209,12 @@ def pair_markdown(res: dict, command: str) -> str:
             f"{res['families_in_both']} families seen in both views.", "",
             md_table(["view", "families", "lines", "pixels", "lines too short"], seen), "",
             "Errors against the ground truth (`x_B = R x_A + t` between the mirror frames): the exact "
-            "(non-central) model, then the central baseline (the best central approximation of the rig).", "",
+            "(non-central) model, then the central baseline (the best central approximation of the rig), then "
+            "the rotation of whichever of the two claims the smaller deviation (`pose.choose_model`, the model "
+            "chosen in brackets).", "",
             md_table(["noise (px)", "draw", "rotation (deg)", "Frobenius", "translation (m)",
-                      "translation direction (deg)", "central rotation (deg)", "central translation direction (deg)"],
-                     rows), "",
+                      "translation direction (deg)", "central rotation (deg)", "central translation direction (deg)",
+                      "selected rotation (deg)"], rows), "",
             "The paper (Miraldo et al., CVPR 2018, Sec. 5.4) reports a Frobenius error of 0.0446 for its POV-Ray pair "
             "(non-central ellipsoidal rig, 2 px noise).", "", f"Reproduce: `{command}`", ""]
     return "\n".join(text)
