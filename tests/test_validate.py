@@ -189,3 +189,15 @@ def test_benchmark_results_are_kept_by_the_code_that_made_them(tmp_path):
     for kind in ("labels", "images"):
         assert _fingerprint(spec, config, pair, kind, d0) != _fingerprint(spec, config, pair, kind, d1)
         assert _fingerprint(spec, config, pair, kind) == _fingerprint(spec, config, pair, kind, code_digest())
+
+
+def test_the_central_approximations_own_error():
+    """central_model_error_px: 0 for a central rig (its exact unified model), a fraction of a pixel
+    for the hyperboloid off its focus (docs/relative_pose.md, 'The fair central baseline')."""
+    from catadioptric.rigspec import load_rig
+    from catadioptric.validate.relative_pose import central_approximation, central_model_error_px
+
+    assert central_model_error_px(load_rig("hyperboloid_central", width=640, height=480)) == 0.0
+    e = central_model_error_px(load_rig("hyperboloid", width=640, height=480))
+    assert 0.1 < e < 0.4  # 0.204 px when measured
+    assert central_approximation(load_rig("hyperboloid", width=640, height=480)).viewpoint.shape == (3,)

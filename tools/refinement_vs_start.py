@@ -21,7 +21,7 @@ from catadioptric.dataset import Dataset
 from catadioptric.pose import ViewLines, relative_pose, rotation_angle_deg
 from catadioptric.pose.signs import sign_candidates
 from catadioptric.validate.observations import line_pixels
-from catadioptric.validate.relative_pose import _central_fit, _draw_pixels, central_approximation
+from catadioptric.validate.relative_pose import _draw_pixels, central_approximation, central_model_error_px
 
 
 def main() -> None:
@@ -42,7 +42,7 @@ def main() -> None:
             cams = (va["camera"], vb["camera"])
             base = [line_pixels(v, pixels="curve", min_pixels=30) for v in (va, vb)]
             uni = [central_approximation(c) for c in cams]
-            model_px = max(_central_fit(c)[1] for c in cams)
+            model_px = max(central_model_error_px(c) for c in cams)
             for k in range(args.draws):
                 rng = np.random.default_rng([p, int(args.noise * 1000), k])
                 uvs = [_draw_pixels(b, rng, args.noise, 1000) for b in base]

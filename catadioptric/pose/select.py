@@ -7,7 +7,8 @@ and on the pair (docs/relative_pose.md, "Where the refinement ends on near-centr
 :func:`~catadioptric.pose.relative_pose`) and keeps the rotation whose own covariance promises
 the smaller error (``rotation_std_deg``). That is only fair when the central answer's covariance
 carries its model error: estimate it with ``relative_pose(..., model_error_px=e)``, ``e`` the
-approximation's rms pixel error (``validate.relative_pose._central_fit``), as the benchmark does.
+approximation's rms pixel error (``validate.relative_pose.central_model_error_px``), as the
+benchmark does.
 
 The central answer is never taken when either answer is ambiguous (a verdict is not a
 precision) or when the two rotations disagree by more than ``agree_sigma`` of their combined

@@ -20,7 +20,7 @@ import numpy as np
 
 from .._checks import CatadioptricError
 
-__all__ = ["evaluate_pair", "central_approximation", "ENDS"]
+__all__ = ["evaluate_pair", "central_approximation", "central_model_error_px", "ENDS"]
 
 ENDS = ("unknown", "given")
 _UNIFIED_CACHE: dict = {}
@@ -30,6 +30,13 @@ def central_approximation(cam):
     """The best central approximation of a rig (unified model with tilt), fitted once per rig;
     a central rig's own exact unified model."""
     return _central_fit(cam)[0]
+
+
+def central_model_error_px(cam) -> float:
+    """How far the rig's best central approximation (:func:`central_approximation`) is from its
+    exact pixels: the rms pixel distance of the fit (0 for a central rig). The central answer's
+    ``relative_pose(..., model_error_px=)``."""
+    return _central_fit(cam)[1]
 
 
 def _central_fit(cam):
@@ -136,7 +143,7 @@ def _evaluate_pair(dataset, names, noise_levels, draws, seed, pixels, min_pixels
     hints = {f: (pa.directions_to_mirror(fam_dirs[f]), pb.directions_to_mirror(fam_dirs[f])) for f in common}
     uni = [central_approximation(c) for c in cams] if central else None
     # the approximation's own error: an error every pixel of a line shares (pose.relative_pose)
-    model_px = max(_central_fit(c)[1] for c in cams) if central else 0.0
+    model_px = max(central_model_error_px(c) for c in cams) if central else 0.0
     centres = [rays_centre(c) for c in cams]
     uni_centres = [np.asarray(u.viewpoint, float) for u in uni] if central else None
     out = {"views": list(names), "R_gt": R_gt, "t_gt": t_gt, "baseline_m": float(np.linalg.norm(t_gt)),
