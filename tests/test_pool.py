@@ -31,6 +31,28 @@ def test_a_workers_error_is_raised_in_the_caller():
         list(imap_spawn(_fail_on_three, range(6), 2))
 
 
+def _write_pid_then_sleep(path):
+    with open(path, "w") as f:
+        f.write(str(os.getpid()))
+    if path.endswith("slow.pid"):
+        time.sleep(120)
+    return path
+
+
+def test_a_caller_that_stops_early_ends_the_workers(tmp_path):
+    paths = [str(tmp_path / "fast.pid"), str(tmp_path / "slow.pid")]
+    results = imap_spawn(_write_pid_then_sleep, paths, 2)
+    assert next(results) == paths[0]
+    deadline = time.monotonic() + 60
+    while not (os.path.exists(paths[1]) and open(paths[1]).read()):
+        assert time.monotonic() < deadline, "the slow task did not start"
+        time.sleep(0.1)
+    pid = int(open(paths[1]).read())
+    assert _alive(pid)
+    results.close()  # the caller stops: the pool is terminated, the sleeping worker with it
+    assert not _alive(pid)
+
+
 _SCRIPT = """
 import os, sys, time
 sys.path.insert(0, {root!r})

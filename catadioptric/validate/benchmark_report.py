@@ -158,8 +158,6 @@ def benchmark_markdown(spec: dict, agg: dict, results: list, command: str, timin
         rows = []
         for n, a in agg.items():
             for m in models:
-                if m == "selected" and "selected" not in a["noise"][str(noises[0])]:
-                    continue
                 rows.append([n, m] + [_fmt(a["noise"][str(x)][m][field], digits) for x in noises])
         L += [f"## {title}", "", md_table(["configuration", "model"] + [f"{x:g} px" for x in noises], rows), ""]
     rows = []
@@ -168,12 +166,11 @@ def benchmark_markdown(spec: dict, agg: dict, results: list, command: str, timin
             c = [a["noise"][str(x)][m] for x in noises]
             rows.append([n, m, sum(e["draws"] for e in c), sum(e["failed"] for e in c), sum(e["ambiguous"] for e in c),
                          sum(e["over_10deg_unflagged"] for e in c), _fmt(_merge([e["seconds"] for e in c]), 2)])
-    if all("selected" in a["noise"][str(x)] for a in agg.values() for x in noises):
-        chosen = [[n] + [f"{a['noise'][str(x)]['selected']['central_chosen']}/{a['noise'][str(x)]['selected']['draws']}"
-                         for x in noises] for n, a in agg.items()]
-        L += ["## Selected model", "",
-              "Per cell: the draws whose rotation comes from the central baseline, of the draws both models answered.",
-              "", md_table(["configuration"] + [f"{x:g} px" for x in noises], chosen), ""]
+    chosen = [[n] + [f"{a['noise'][str(x)]['selected']['central_chosen']}/{a['noise'][str(x)]['selected']['draws']}"
+                     for x in noises] for n, a in agg.items()]
+    L += ["## Selected model", "",
+          "Per cell: the draws whose rotation comes from the central baseline, of the draws both models answered.",
+          "", md_table(["configuration"] + [f"{x:g} px" for x in noises], chosen), ""]
     L += ["## Draws: failures, ambiguous answers, wrong answers", "",
           md_table(["configuration", "model", "draws", "failed", "ambiguous", "> 10 deg off, not flagged",
                     "seconds per draw"], rows), ""]
@@ -356,8 +353,6 @@ def _plot(agg, spec, field, ylabel, models, fname_title):
     colors = {"exact": "tab:blue", "central": "tab:orange", "selected": "tab:green"}
     for ax, n in zip(axes[0], names):
         for m in models:
-            if any(m not in agg[n]["noise"][str(v)] for v in spec["noise_px"]):
-                continue
             q = [agg[n]["noise"][str(v)][m][field] for v in spec["noise_px"]]
             med = np.array([np.nan if e["median"] is None else e["median"] for e in q])
             lo = np.array([np.nan if e["q1"] is None else e["q1"] for e in q])
