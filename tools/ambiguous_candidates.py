@@ -15,7 +15,9 @@ detection takes most of the time). Needs the benchmark's datasets (README, "rela
 benchmark").
 
 ``matching_variants/near_segments.patch`` (``git apply`` it, then run ``summary``) keeps only the
-meeting rays within 20 pixels of both lines' seen arcs: the variant measured in the docs.
+meeting rays within 20 pixels of both lines' seen arcs, ``matching_variants/appearance_gate.patch``
+pairs only lines that look alike (the colours either side; ``tools/appearance_separability.py``
+measures the cue): the variants measured in the docs.
 """
 from __future__ import annotations
 
