@@ -1,7 +1,7 @@
 """Why answers from two images alone come out ambiguous on the relative-pose benchmark
 (docs/relative_pose.md, "What the matching finds"): each answer's candidates scored by the labels.
 
-    .venv/bin/python tools/ambiguous_candidates.py summary [--configs sphere ...] [--cache DIR]
+    .venv/bin/python tools/ambiguous_candidates.py summary [--configs sphere ...] [--cache DIR] [--seed S]
     .venv/bin/python tools/ambiguous_candidates.py show sphere:0 sphere:2 [--joint] [--cache DIR]
 
 ``summary``: every pair's answer (prior ``--prior``, default 60; families found in both views at
@@ -59,9 +59,9 @@ def _detections(cfg, pair, cache):
     return dets, R_gt
 
 
-def _answer(cfg, pair, prior, cache):
+def _answer(cfg, pair, prior, cache, seed=0):
     dets, R_gt = _detections(cfg, pair, cache)
-    pose = pose_from_detections(dets[0], dets[1], min_pixels=30, max_rotation_deg=prior, joint=False).pose
+    pose = pose_from_detections(dets[0], dets[1], min_pixels=30, max_rotation_deg=prior, joint=False, seed=seed).pose
     return dets, R_gt, pose
 
 
@@ -69,14 +69,14 @@ def _mapping(c):
     return {int(b): (int(a), int(s)) for b, v in c.signs.items() if isinstance(v, tuple) for a, s in [v]}
 
 
-def summary(spec, configs, prior, cache):
+def summary(spec, configs, prior, cache, seed=0):
     n = n_amb = n_amb_right = 0
     for cfg in spec["configs"]:
         if configs and cfg["name"] not in configs:
             continue
         for pair in pairs_of(spec, cfg):
             try:
-                _, R_gt, pose = _answer(cfg, pair, prior, cache)
+                _, R_gt, pose = _answer(cfg, pair, prior, cache, seed)
             except CatadioptricError as exc:
                 print(f"{cfg['name']}:{pair.index} error: {exc}")
                 continue
@@ -90,12 +90,12 @@ def summary(spec, configs, prior, cache):
           "of the truth")
 
 
-def show(spec, items, prior, cache, joint):
+def show(spec, items, prior, cache, joint, seed=0):
     by_name = {c["name"]: c for c in spec["configs"]}
     for item in items:
         name, k = item.split(":")
         cfg = by_name[name]
-        dets, R_gt, pose = _answer(cfg, pairs_of(spec, cfg)[int(k)], prior, cache)
+        dets, R_gt, pose = _answer(cfg, pairs_of(spec, cfg)[int(k)], prior, cache, seed)
         da, db = dets
         std = pose.rotation_std_deg if np.isfinite(pose.rotation_std_deg) else 0.5
         print(f"{item}: {'ambiguous' if pose.ambiguous else 'decisive'}, margin {pose.margin:.1f}, rotation error "
@@ -128,15 +128,16 @@ def main():
     for p in (s, w):
         p.add_argument("--prior", type=float, default=60.0)
         p.add_argument("--cache", default=None)
+        p.add_argument("--seed", type=int, default=0, help="the matching's RANSAC seed")
     a = ap.parse_args()
     spec = load_benchmark_spec(SPEC)
     from threadpoolctl import threadpool_limits
 
     with threadpool_limits(1):
         if a.cmd == "summary":
-            summary(spec, a.configs, a.prior, a.cache)
+            summary(spec, a.configs, a.prior, a.cache, a.seed)
         else:
-            show(spec, a.pairs, a.prior, a.cache, a.joint)
+            show(spec, a.pairs, a.prior, a.cache, a.joint, a.seed)
 
 
 if __name__ == "__main__":
