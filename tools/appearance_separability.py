@@ -20,16 +20,13 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
-from ambiguous_candidates import SPEC, _detections  # noqa: E402
+from ambiguous_candidates import DATA, SPEC, _detections  # noqa: E402
 
 from catadioptric.dataset import Dataset  # noqa: E402
 from catadioptric.detect.evaluate import _match_lines, label_curves  # noqa: E402
 from catadioptric.pose.matching import side_distance  # noqa: E402
 from catadioptric.validate.benchmark import dataset_folder  # noqa: E402
 from catadioptric.validate.benchmark_spec import load_benchmark_spec, pairs_of  # noqa: E402
-
-DATA = "render/out/relative_pose_benchmark"
-
 
 def pair_distances(cfg, pair, cache, min_pixels=30):
     dets, _ = _detections(cfg, pair, cache)
