@@ -24,9 +24,14 @@ from ambiguous_candidates import DATA, SPEC, _detections  # noqa: E402
 
 from catadioptric.dataset import Dataset  # noqa: E402
 from catadioptric.detect.evaluate import _match_lines, label_curves  # noqa: E402
-from catadioptric.pose.matching import side_distance  # noqa: E402
 from catadioptric.validate.benchmark import dataset_folder  # noqa: E402
 from catadioptric.validate.benchmark_spec import load_benchmark_spec, pairs_of  # noqa: E402
+
+try:
+    from catadioptric.pose.matching import side_distance
+except ImportError:
+    sys.exit("catadioptric.pose.matching has no side_distance: git apply tools/matching_variants/appearance_gate.patch "
+             "first")
 
 def pair_distances(cfg, pair, cache, min_pixels=30):
     dets, _ = _detections(cfg, pair, cache)
