@@ -13,6 +13,7 @@ between two views ``x_B = R x_A + t`` (mirror frames). Lines are Pluecker ``(s, 
 | `relative_translation_from_lines` | `translation.py` | R, lines fitted in each view, rays of both | t (metric, non-central) |
 | `refine_two_view` | `bundle.py` | R, t, lines, pixels of both views | R, t, lines, covariance (non-central) |
 | `translation_direction_from_crossings` | `central.py` | R, planes of the lines matched in both views | direction between the views' centres |
+| `refine_with_crossings` | `epipolar.py` | directions with covariances, inlier meeting rays, R | R and the direction between the centres refined together, covariance |
 | `family_matches` | `matching.py` | each view's families (unmatched) | the assignments of B's families to A's a rotation allows |
 | `match_lines` | `matching.py` | a family assignment, each view's lines (unmatched) | lines matched where they meet, direction between the centres |
 | `relative_pose` | `relative.py` | the lines each view sees (matched by id, or not) | R, t, covariance, candidates, ambiguity verdict |
@@ -24,6 +25,7 @@ from __future__ import annotations
 
 from .bundle import TwoViewFit, refine_two_view
 from .central import CrossingFit, translation_direction_from_crossings
+from .epipolar import EpipolarFit, refine_with_crossings
 from .families import FamilyEstimate, ViewLines, fit_view_families
 from .matching import FamilyMatch, LineMatch, family_matches, match_lines
 from .relative import Candidate, RelativePose, relative_pose
@@ -36,6 +38,7 @@ __all__ = [
     "rotation_from_directions", "rotation_angle_deg", "refine_rotation", "DirectionRotation",
     "sign_candidates", "SignCandidate", "translation_from_lines", "relative_translation_from_lines",
     "refine_two_view", "TwoViewFit", "translation_direction_from_crossings", "CrossingFit",
+    "refine_with_crossings", "EpipolarFit",
     "ViewLines", "FamilyEstimate", "fit_view_families", "relative_pose", "RelativePose", "Candidate",
     "family_matches", "FamilyMatch", "match_lines", "LineMatch", "choose_model", "ModelChoice",
 ]

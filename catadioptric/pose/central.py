@@ -38,7 +38,8 @@ class CrossingFit:
     plane of ``t``); ``cost``: truncated (MSAC) cost over all meeting rays, ``sum min(r^2 / sigma^2, c2)``
     (chi-square units, for ranking rotation candidates: a wrong rotation turns the true
     meeting points into outliers); ``n_crossings``: candidate meeting rays, ``n_inliers``; ``n_lines``:
-    lines matched in both views; ``threshold_rad``: the inlier threshold."""
+    lines matched in both views; ``threshold_rad``: the inlier threshold; ``inliers (K,)``: which
+    of the meeting rays are inliers."""
 
     t: np.ndarray
     cov: np.ndarray
@@ -47,6 +48,7 @@ class CrossingFit:
     n_inliers: int
     n_lines: int
     threshold_rad: float
+    inliers: np.ndarray | None = None
 
 
 def _rad_per_px(cam) -> float:
@@ -288,4 +290,4 @@ def translation_direction_from_crossings(rays: MeetingRays | None, R, *, sigma_p
     J = (A[inl] @ E) * np.sqrt(wk[inl])[:, None]
     cov = E @ np.linalg.pinv(J.T @ J) @ E.T if inl.sum() >= 2 else np.full((3, 3), np.nan)
     return CrossingFit(t=t, cov=cov, cost=float(cost[0]), n_crossings=len(A), n_inliers=int(inl.sum()),
-                       n_lines=rays.n_lines, threshold_rad=float(thr))
+                       n_lines=rays.n_lines, threshold_rad=float(thr), inliers=inl)

@@ -10,12 +10,13 @@ Steps (docs/relative_pose.md):
 2. the families seen in both views give rotation candidates, one per sign pattern that a
    rotation can fit (:func:`~catadioptric.pose.signs.sign_candidates`); with the ends matched
    (``ends``) the signs are known and there is one candidate;
-3. non-central rigs: for each candidate, a linear translation from the lines matched across
-   the views (:func:`~catadioptric.pose.translation.relative_translation_from_lines`, both
-   ways), then rotation, translation, directions and lines refined jointly on the pixels of
-   both views (:func:`~catadioptric.pose.bundle.refine_two_view`); central rigs: the
-   translation direction from the points where lines of two families meet
-   (:func:`~catadioptric.pose.central.translation_direction_from_crossings`);
+3. every candidate: the direction between the views' centres from the points where lines of
+   two families meet (:func:`~catadioptric.pose.central.translation_direction_from_crossings`),
+   then the rotation and that direction refined together from the directions and the meeting
+   rays (:func:`~catadioptric.pose.epipolar.refine_with_crossings`). Central rigs: that is the
+   estimate. Non-central rigs: the best candidates are then refined with their metric
+   translation, directions and lines on the pixels of both views
+   (:func:`~catadioptric.pose.bundle.refine_two_view`), starting there;
 4. the candidates are ranked by that two-view cost. The best is the answer when its margin
    over the second (a log-likelihood ratio, chi-square units) is at least ``decisive``;
    otherwise the result is ``ambiguous`` and lists every candidate.
@@ -29,6 +30,7 @@ import numpy as np
 from .._checks import CatadioptricError, as_scalar
 from .bundle import TwoViewFit, refine_two_view
 from .central import meeting_rays, translation_direction_from_crossings
+from .epipolar import refine_with_crossings
 from .families import FamilyEstimate, ViewLines, fit_view_families, is_central
 from .rotation import rotation_angle_deg
 from .signs import sign_candidates
@@ -213,6 +215,7 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, s
     ``(TwoViewFit or None, lines matched)``; None when fewer than two lines are matched in both
     views."""
     R = cand.R
+    t_dir = cand.t if cand.t is not None else (None if crossing is None else crossing.t)
     matched, single = [], []  # (key, ka, kb) with ka/kb None for a line seen in one view only
     for key in keys:
         A_ids = {va.line_id[i]: k for k, i in enumerate(ea[key].lines) if va.line_id[i] is not None}
@@ -236,8 +239,8 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, s
     offset = eb[keys[0]].centre - R @ ea[keys[0]].centre
     alpha = _scale_by_search(va, vb, [(fam_index[key], _pixels_of(va, ea[key], ka, max_pixels),
                                        _pixels_of(vb, eb[key], kb, max_pixels)) for key, ka, kb in matched],
-                             dirs_a, R, crossing.t, offset, sigma_cost)
-    t0 = alpha * crossing.t + offset
+                             dirs_a, R, t_dir, offset, sigma_cost)
+    t0 = alpha * t_dir + offset
     # matched lines triangulated; a line seen in one view starts in its plane through that view's
     # centre, as far as the matched lines' median (one view of a near-central rig hardly places it:
     # the refinement moves it where its pixels say)
@@ -411,12 +414,21 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
     out = []
     n_matched = rays.n_lines if rays is not None else 0
     for score1, c, cr in stage:
-        cov = None
+        cov, R, t = None, c.R, None if cr is None else cr.t
         if cr is not None:
             cov = np.full((6, 6), np.nan)
             cov[:3, :3], cov[3:, 3:] = c.cov, cr.cov
-        out.append(Candidate(dict(zip(keys, c.signs.astype(int))), c.R, None if cr is None else cr.t, score1, c.cost,
-                             cov, cr))
+            if rays.cov_a is not None and cr.n_inliers >= 2:
+                # the rotation and the translation's direction together, from the directions and the
+                # inlier meeting rays (pose/epipolar.py); the candidates keep their stage-1 ranking
+                ef = refine_with_crossings(a * c.signs[:, None], b, Ca, Cb, rays, cr, c.R)
+                R, cov = ef.R, ef.cov
+                # the direction again at that rotation, as stage 1 places it: its inliers follow their
+                # own spread, so that exact pixels give it exactly (the joint fit's Cauchy weights
+                # leave the rays that pass the threshold without meeting a pull of 1e-3 degree)
+                cr_r = translation_direction_from_crossings(rays, R, sigma_px=sigma_cost, seed=seed)
+                t = cr.t if cr_r is None else cr_r.t
+        out.append(Candidate(dict(zip(keys, c.signs.astype(int))), R, t, score1, c.cost, cov, cr))
     margin = out[1].cost - out[0].cost if len(out) > 1 else float("inf")
     if not central:
         # stage 2: the metric refinement on the pixels of both views. The best candidate of stage 1 and
@@ -426,7 +438,7 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
         done = set()
         while todo:
             for i in todo:
-                fit, n_m = _noncentral_candidate(stage[i][1], keys, view_a, view_b, ea, eb, stage[i][2],
+                fit, n_m = _noncentral_candidate(out[i], keys, view_a, view_b, ea, eb, stage[i][2],
                                                  max_pixels=max_pixels, sigma_cost=sigma_cost, pixel_sigma=pixel_sigma)
                 n_matched = max(n_matched, n_m)
                 done.add(i)
