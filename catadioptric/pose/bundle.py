@@ -77,8 +77,12 @@ class _Problem:
     direction a near-central rig barely sees is a straight line in these coordinates, not the
     curved valley of a metric ``t`` against inverse distances."""
 
-    def __init__(self, cam_a, cam_b, dirs0, points0, line_family, uv, owner, view, centres, R0, t0, warm_start=True):
+    def __init__(self, cam_a, cam_b, dirs0, points0, line_family, uv, owner, view, centres, R0, t0, warm_start=True,
+                 corners=None, corner_sigma=None):
         self.cams = (cam_a, cam_b)
+        self.corners = np.zeros((0, 2), dtype=int) if corners is None else np.asarray(corners, dtype=int).reshape(-1, 2)
+        self.corner_sigma = (np.ones(len(self.corners)) if corner_sigma is None
+                             else np.broadcast_to(np.asarray(corner_sigma, float), (len(self.corners),)).copy())
         self.ca, self.cb = (np.asarray(c, dtype=float) for c in centres)
         self.s0 = dirs0 / np.linalg.norm(dirs0, axis=1, keepdims=True)
         self.e1, self.e2 = _basis(self.s0)
@@ -136,6 +140,51 @@ class _Problem:
         tv = self.that0 + y[3] * self.f1 + y[4] * self.f2
         ntv = np.linalg.norm(tv)
         return s, nv, al, rho, u, tv / ntv, ntv, float(np.exp(y[5]))
+
+    def corner_terms(self, R, y):
+        """Where two lines meet (``self.corners``, pairs of lines of different families): the ray
+        from each view's centre that meets both lines (where their planes through that centre
+        meet) and the epipolar residual of the two rays, ``t^ . (R x_A x x_B)`` (unit rays): zero
+        when the lines meet, and zero too when they do not but the two rays lie in one plane with
+        the baseline (a line parallel to the baseline), as for the meeting rays of stage 1. In
+        units of ``self.corner_sigma``; ``r (K,)`` and its Jacobian ``J (K, ny)`` (rotation,
+        translation's direction, the two families' directions and the two lines' charts; the
+        scale cancels). The derivatives in the rays' own coordinates are central differences."""
+        K = len(self.corners)
+        J = np.zeros((K, self.ny))
+        if K == 0:
+            return np.zeros(0), J
+        s, nv, al, rho, u, that, ntv, _ = self.parts(y)
+        l1, l2 = self.corners[:, 0], self.corners[:, 1]
+        f1, f2 = self.fam[l1], self.fam[l2]
+        r1, r2 = rho[l1], rho[l2]
+        # in B's orientation, relative to c_A, in units of the baseline: U = R (P - c_A) / k, T = R s
+        X = np.stack([(u[l1] / r1[:, None]) @ R.T, s[f1] @ R.T, (u[l2] / r2[:, None]) @ R.T, s[f2] @ R.T,
+                      np.broadcast_to(that, (K, 3))], axis=1)  # (K, 5, 3)
+        r = _transversal_residual(X)
+        h = 1e-7
+        D = np.empty((K, 5, 3))
+        for a in range(5):
+            for c in range(3):
+                Xp, Xm = X.copy(), X.copy()
+                Xp[:, a, c] += h
+                Xm[:, a, c] -= h
+                D[:, a, c] = (_transversal_residual(Xp) - _transversal_residual(Xm)) / (2 * h)
+        k = np.arange(K)
+        # rotation (left): dX = -[X]_x w for the four rotated vectors
+        J[:, 0:3] = sum(-np.einsum("ki,kij->kj", D[:, a], skew(X[:, a])) for a in range(4))
+        dthat = np.stack([(self.f1 - that * (that @ self.f1)) / ntv, (self.f2 - that * (that @ self.f2)) / ntv])
+        J[:, 3:5] = D[:, 4] @ dthat.T
+        base = 6 + 2 * self.F
+        for a, l, f in ((0, l1, f1), (2, l2, f2)):
+            du = -np.sin(al[l])[:, None] * self.e1[f] + np.cos(al[l])[:, None] * self.e2[f]
+            J[k, base + 2 * l] = np.sum(D[:, a] * ((du / rho[l][:, None]) @ R.T), 1)
+            J[k, base + 2 * l + 1] = np.sum(D[:, a] * ((-u[l] / rho[l][:, None] ** 2) @ R.T), 1)
+            for j, e in enumerate((self.e1[f], self.e2[f])):
+                ds = (e - s[f] * np.sum(s[f] * e, 1, keepdims=True)) / nv[f][:, None]
+                J[k, 6 + 2 * f + j] = np.sum(D[:, a + 1] * (ds @ R.T), 1)
+        sig = self.corner_sigma
+        return r / sig, J / sig[:, None]
 
     def translation(self, R, y) -> np.ndarray:
         """``t`` of ``x_B = R x_A + t``."""
@@ -312,6 +361,30 @@ def _weights(e, sigma, c2, robust, mask):
     return w, cost
 
 
+def _transversal_residual(X):
+    """``X (K, 5, 3)``: two lines (point relative to c_A and direction, each), then the unit
+    translation, all in B's orientation and units of the baseline. The epipolar residual of the
+    rays from c_A and from c_B (at ``-t^`` from c_A: a point at ``U`` from c_A is at ``U + t^`` from
+    c_B) that meet both lines."""
+    U1, T1, U2, T2, th = (X[:, a] for a in range(5))
+    xa = np.cross(np.cross(U1, T1), np.cross(U2, T2))
+    xb = np.cross(np.cross(U1 + th, T1), np.cross(U2 + th, T2))
+    den = np.maximum(np.linalg.norm(xa, axis=1) * np.linalg.norm(xb, axis=1), 1e-300)
+    return np.sum(th * np.cross(xa, xb), axis=1) / den
+
+
+def _corner_system(pb, R, y, sigma, c2, robust, cmask):
+    """The meeting lines' share of the normal equations and of the cost: ``(Sc, gc, cost)``, in the
+    pixels' units (``S`` sums squared pixel residuals; a corner's residual is in units of its own
+    deviation, so it enters times ``sigma^2``)."""
+    r, J = pb.corner_terms(R, y)
+    if len(r) == 0:
+        return None, None, 0.0
+    w, cost = _weights(r[:, None], 1.0, c2, robust, cmask)
+    Jw = J * w[:, None]
+    return sigma**2 * (Jw.T @ J), sigma**2 * (Jw.T @ r), cost
+
+
 def _normal_equations(pb, A, b, e, w, lam):
     """Schur complement over the depths: ``S dy = -g`` and the depth back-substitution terms.
 
@@ -336,14 +409,17 @@ def _damped_solve(S, g, lam):
         return -np.linalg.lstsq(S_n, g / sc, rcond=None)[0] / sc
 
 
-def _solve_step(pb, A, b, e, w, lam, y, mu, hold_scale=False):
+def _solve_step(pb, A, b, e, w, lam, y, mu, hold_scale=False, extra=(None, None)):
     """The damped Gauss-Newton step ``(dy, dmu)``. Unknowns that the step pushes against their
     bounds (:meth:`_Problem.pushed_bounds`; a depth at ``+-_MU_MAX`` pushed outwards) are held on
     them and the step solved again, until it pushes against no other: moved across and clipped
     back by :meth:`_Problem.apply`, they would leave the rest of the step inconsistent, and
     Levenberg-Marquardt would crawl. ``hold_scale``: the scene's scale (``sigma``) is held from
     the start."""
+    Sc, gc = extra
     S, g, Hym, gm, Hmm_d = _normal_equations(pb, A, b, e, w, lam)
+    if Sc is not None:
+        S, g = S + Sc, g + gc
     held = (np.zeros(pb.L, dtype=bool), np.zeros(pb.L, dtype=bool), bool(hold_scale))
     T = pb.bound_chart(y, held)
     dy = _damped_solve(S, g, lam) if T is None else T @ _damped_solve(T.T @ S @ T, T.T @ g, lam)
@@ -357,6 +433,8 @@ def _solve_step(pb, A, b, e, w, lam, y, mu, hold_scale=False):
             break
         if not np.array_equal(stuck, stuck2):  # a depth held: no depth column for its pixel
             S, g, Hym, gm, Hmm_d = _normal_equations(pb, A, np.where(stuck2[:, None], 0.0, b), e, w, lam)
+            if Sc is not None:
+                S, g = S + Sc, g + gc
         held, stuck = held2, stuck2
         T = pb.bound_chart(y, held)
         dy = _damped_solve(S, g, lam) if T is None else T @ _damped_solve(T.T @ S @ T, T.T @ g, lam)
@@ -399,7 +477,7 @@ def _trial(pb, R, y, mu, settle):
     return mu, e, state
 
 
-def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter, tol_chi2, settle=False, hold_scale=False):
+def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter, tol_chi2, settle=False, hold_scale=False, cmask=None):
     """Levenberg-Marquardt. The damping falls tenfold after each accepted step, down to 1e-15: the
     flat direction of a near-central rig (the scene's scale) has an eigenvalue many orders below
     the diagonal it is damped with, and a damping that stays near 1e-3 would stall along it.
@@ -408,17 +486,22 @@ def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter, tol_chi2, settle=False,
     unit, a difference the pixels cannot tell apart, and used to run to ``max_iter``. ``settle``:
     each trial's depths re-solved before it is judged (:func:`_trial`); ``hold_scale``: the scene's
     scale held (:func:`_solve_step`)."""
+    if cmask is None:
+        cmask = np.ones(len(pb.corners), dtype=bool)
     mu, e, A, b = _settle_depths(pb, R, y, mu)
     w, cost = _weights(e, sigma, c2, robust, mask)
+    Sc, gc, cc = _corner_system(pb, R, y, sigma, c2, robust, cmask)
+    cost += cc
     lam = 1e-5
     it = 0
     for it in range(1, max_iter + 1):
         improved = False
         for _ in range(12):
-            dy, dmu = _solve_step(pb, A, b, e, w, lam, y, mu, hold_scale)
+            dy, dmu = _solve_step(pb, A, b, e, w, lam, y, mu, hold_scale, (Sc, gc))
             R2, y2, mu2 = pb.apply(R, y, mu, dy, dmu)
             mu2, e2, state2 = _trial(pb, R2, y2, mu2, settle)
             _, cost2 = _weights(e2, sigma, c2, robust, mask)
+            cost2 += _corner_system(pb, R2, y2, sigma, c2, robust, cmask)[2]
             if cost2 <= cost:
                 improved = True
                 break
@@ -431,6 +514,8 @@ def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter, tol_chi2, settle=False,
         A, b = pb.jacobian(R, y, mu, state2)
         lam = max(lam / 10.0, 1e-15)
         w, cost = _weights(e, sigma, c2, robust, mask)
+        Sc, gc, cc = _corner_system(pb, R, y, sigma, c2, robust, cmask)
+        cost += cc
         if rel < 1e-10 or cost_before - cost < tol_chi2:
             break
     return R, y, mu, cost, it
@@ -440,7 +525,8 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
                     centres=None, sigma_cost: float = 1.0, pixel_sigma: float | None = None, robust: bool = True,
                     c2: float = 9.0, max_iter: int = 50, inlier_sigmas: float = 3.5,
                     tol_chi2: float = 0.01, warm_start: bool = True, settle_depths: bool = False,
-                    hold_scale: bool = False) -> TwoViewFit:
+                    hold_scale: bool = False, release_scale: float = 0.05, corners=None,
+                    corner_sigma=None) -> TwoViewFit:
     """Refine ``x_B = R x_A + t`` and the lines jointly from the pixels of both views.
 
     ``dirs0 (F, 3)``: starting family directions in A; ``points0 (L, 3)``: a starting point of
@@ -462,13 +548,28 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     each trial step judged at its depths re-solved (:func:`_trial`); its rotations are not told
     apart from the default's on the benchmark (160 draws at 1 and 2 px: better in 75, Wilcoxon
     p = 0.19) and it takes 0.99-1.74x the time (``bench/bench_refinement.py --settle``), so off by
-    default. ``hold_scale``: the robust stage holds the scene's scale (the baseline's length with
-    every line's distance) where the start put it, and the polish frees it. Measured on the
-    benchmark's first pairs at 2 px (docs/relative_pose.md, "Where the refinement ends on
-    near-central rigs"): the rotation's median better (hyperboloid 0.324 -> 0.228 degree over 20
-    draws, ``hyperboloid_9pct`` 0.342 -> 0.234 and the sphere 0.230 -> 0.200 over 12; ellipsoid
-    0.230 -> 0.244), the translation's direction worse (hyperboloid 1.75 -> 3.27 degrees, Wilcoxon
-    p = 0.03; sphere 2.47 -> 4.35): off by default.
+    default.
+
+    ``corners (K, 2)``: pairs of lines (indices into ``points0``, of different families) whose
+    meeting rays were inliers of stage 1's translation
+    (:func:`~catadioptric.pose.central.translation_direction_from_crossings`), each with the
+    deviation ``corner_sigma (K,)`` of its epipolar residual there: the rays from each view's
+    centre that meet both lines must lie in one plane with the baseline
+    (:meth:`_Problem.corner_terms`), robust in the first stage, kept in the polish while within
+    ``inlier_sigmas`` of deviations that follow the pixels' noise (exact pixels: rays that passed
+    stage 1's threshold without their lines meeting are then left out). The lines alone tell a
+    near-central rig's translation direction poorly; on the benchmark's first 20 hyperbolic pairs
+    at 2 px its median error fell from 2.2 to 0.7 degree with them. The ``cost`` reported is then
+    the pixels' alone (candidates with different meetings are ranked by their pixels).
+
+    ``hold_scale``: both stages hold the scene's scale (the baseline's length with every line's
+    distance) where ``t0`` puts it, and free it after the polish only if the pixels fix it
+    (deviation of its logarithm below ``release_scale``). Not used by
+    :func:`~catadioptric.pose.relative_pose`: held at the right scale it helps (hyperboloid pairs
+    0-19 at 2 px, the scale held wherever the start put it, with the meetings: median rotation
+    error 0.124 degree against 0.291 free), but the start's scale search mostly ends at a bound
+    of its range there (0.25 or 64 m), and held at the wrong scale the rotation is biased (the
+    box scene of tests/test_relative_pose.py at 1 px: 1.24 degree held at 64 m, 0.07 free).
     """
     uv_a = np.asarray(uv_a, float).reshape(-1, 2)
     uv_b = np.asarray(uv_b, float).reshape(-1, 2)
@@ -483,7 +584,7 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
         centres = (_rays_centre(cam_a, uv_a), _rays_centre(cam_b, uv_b))
     R = np.asarray(R0, float)
     pb = _Problem(cam_a, cam_b, np.asarray(dirs0, float), np.asarray(points0, float), line_family, uv, owner, view,
-                  centres, R, t0, warm_start)
+                  centres, R, t0, warm_start, corners, corner_sigma)
     y = pb.start()
     # starting depths: each pixel's ray closest to its line (B's rays moved into A)
     s, _, _, rho, u, _, _, k = pb.parts(y)
@@ -502,6 +603,8 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     R, y, mu, cost, it1 = _lm(pb, R, y, mu, sigma_cost, c2, robust, mask, max_iter, tol_chi2, settle_depths,
                               hold_scale)
     e, _, _ = pb.evaluate(R, y, mu, jac=False)
+    if len(pb.corners):
+        cost = _weights(e, sigma_cost, c2, robust, mask)[1]
     dist = np.linalg.norm(e, axis=1)
     fin = np.isfinite(dist)
     if pixel_sigma is not None:
@@ -509,28 +612,26 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     else:
         sig = float(np.median(dist[fin]) / _HALF_NORMAL_MEDIAN) if fin.any() else sigma_cost
         noise = max(sig, 1e-9 * sigma_cost)
+    # the meetings' deviations follow the pixels' noise where it is below the robust stage's scale
+    # (exact pixels: the rays that passed stage 1's threshold without meeting are then outliers)
+    pb.corner_sigma = pb.corner_sigma * min(1.0, noise / sigma_cost)
+    cmask = np.abs(pb.corner_terms(R, y)[0]) <= inlier_sigmas
     inl = fin & (dist <= inlier_sigmas * noise)
     if inl[view == 1].sum() < 3:
         inl = fin
-    R, y, mu, _, it2 = _lm(pb, R, y, mu, noise, c2, False, inl, 2 * max_iter - it1, tol_chi2, settle_depths)
-    e, A, b = pb.evaluate(R, y, mu)
-    dist = np.linalg.norm(e, axis=1)
-    inl &= np.isfinite(dist)
-    w = inl.astype(float)
-    S, _, _, _, _ = _normal_equations(pb, A, b, np.nan_to_num(e), w, 0.0)
-    n_in = int(inl.sum())
-    dof = n_in - pb.ny  # two residuals and one depth per pixel
-    rss = float(np.sum(dist[inl] ** 2))
-    sigma = pixel_sigma if pixel_sigma is not None else (float(np.sqrt(rss / dof)) if dof > 0 else float("nan"))
-    # inverse of the information on the unknowns the pixels see; an unknown they do not see at all
-    # (zero information) gets an infinite variance, one they barely see an enormous one
-    seen = np.diag(S) > 0
-    cov_y = np.full(S.shape, np.nan)
-    np.fill_diagonal(cov_y, np.inf)
-    sc = np.sqrt(np.diag(S)[seen])
-    ev, V = np.linalg.eigh(S[np.ix_(seen, seen)] / np.outer(sc, sc))
-    ev = np.maximum(ev, 1e-15 * max(ev.max(), 1e-300))
-    cov_y[np.ix_(seen, seen)] = (V / ev) @ V.T / np.outer(sc, sc) * sigma**2
+    # with exact pixels the polish goes on to the last digits
+    tol_polish = tol_chi2 * min(1.0, noise / sigma_cost) ** 2
+    R, y, mu, _, it2 = _lm(pb, R, y, mu, noise, c2, False, inl, 2 * max_iter - it1, tol_polish, settle_depths,
+                           hold_scale, cmask)
+    S, sigma, dist, inl = _information(pb, R, y, mu, inl, cmask, c2, pixel_sigma)
+    cov_y = _covariance(S, sigma)
+    if hold_scale and np.sqrt(cov_y[5, 5]) < release_scale:
+        # the pixels fix the scale: freed, where Levenberg-Marquardt no longer crawls along a valley
+        R, y, mu, _, it3 = _lm(pb, R, y, mu, noise, c2, False, inl, 2 * max_iter, tol_polish, settle_depths,
+                               False, cmask)
+        it2 += it3
+        S, sigma, dist, inl = _information(pb, R, y, mu, inl, cmask, c2, pixel_sigma)
+        cov_y = _covariance(S, sigma)
     Jwt = pb.jacobian_wt(R, y)
     cov = Jwt @ cov_y[:6, :6] @ Jwt.T
     s, _, _, rho, u, _, _, k = pb.parts(y)
@@ -542,6 +643,37 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     return TwoViewFit(R=R, t=pb.translation(R, y), cov=cov, directions=s, points=q, sigma=sigma, cost=cost,
                       rms_px=rms, inliers_a=inl[view == 0], inliers_b=inl[view == 1],
                       n_pixels=np.array([int(np.sum(inl & (view == v))) for v in (0, 1)]), iterations=it1 + it2)
+
+
+def _information(pb, R, y, mu, inl, cmask, c2, pixel_sigma):
+    """The information ``S`` on the unknowns at a state (pixels: the inliers ``inl`` still imaged;
+    meetings: ``cmask``), the pixel noise (given, or from the residuals), each pixel's distance and
+    the inliers kept."""
+    e, A, b = pb.evaluate(R, y, mu)
+    dist = np.linalg.norm(e, axis=1)
+    inl = inl & np.isfinite(dist)
+    S, _, _, _, _ = _normal_equations(pb, A, b, np.nan_to_num(e), inl.astype(float), 0.0)
+    dof = int(inl.sum()) - pb.ny  # two residuals and one depth per pixel
+    rss = float(np.sum(dist[inl] ** 2))
+    sigma = pixel_sigma if pixel_sigma is not None else (float(np.sqrt(rss / dof)) if dof > 0 else float("nan"))
+    Sc = _corner_system(pb, R, y, sigma, c2, False, cmask)[0]
+    if Sc is not None and np.isfinite(sigma):
+        S = S + Sc
+    return S, sigma, dist, inl
+
+
+def _covariance(S, sigma):
+    """Inverse of the information on the unknowns the pixels see, times ``sigma^2``; an unknown they
+    do not see at all (zero information) gets an infinite variance, one they barely see an
+    enormous one."""
+    seen = np.diag(S) > 0
+    cov_y = np.full(S.shape, np.nan)
+    np.fill_diagonal(cov_y, np.inf)
+    sc = np.sqrt(np.diag(S)[seen])
+    ev, V = np.linalg.eigh(S[np.ix_(seen, seen)] / np.outer(sc, sc))
+    ev = np.maximum(ev, 1e-15 * max(ev.max(), 1e-300))
+    cov_y[np.ix_(seen, seen)] = (V / ev) @ V.T / np.outer(sc, sc) * sigma**2
+    return cov_y
 
 
 def _rays_centre(cam, uv) -> np.ndarray:

@@ -71,8 +71,8 @@ class MeetingRays:
     ``xa (K, 3)`` (frame A) and ``xb (K, 3)`` (frame B), oriented towards the meeting point;
     ``n_lines``: lines matched in both views; ``rad_per_px``: the coarser view's angle per pixel;
     ``cov_a``, ``cov_b (K, 3, 3)``: each ray's covariance, propagated from its two planes' fits
-    (None when the fits carry none). Most pairs of lines do not meet in 3-D: their rays are
-    outliers."""
+    (None when the fits carry none); ``pairs``: per ray, the ``line_id`` of its two lines. Most
+    pairs of lines do not meet in 3-D: their rays are outliers."""
 
     xa: np.ndarray
     xb: np.ndarray
@@ -80,6 +80,7 @@ class MeetingRays:
     rad_per_px: float
     cov_a: np.ndarray | None = None
     cov_b: np.ndarray | None = None
+    pairs: list | None = None
 
 
 def _sides(view, est):
@@ -154,8 +155,10 @@ def meeting_rays(view_a, view_b, ea, eb, keys) -> MeetingRays | None:
     cov_a = _meeting_cov(xa, nA[i], CA[i], nA[j], CA[j])
     cov_b = _meeting_cov(xb, nB[i], CB[i], nB[j], CB[j])
     has_cov = bool(np.all(np.isfinite(cov_a)) and np.all(np.isfinite(cov_b)))
+    ids = [m[0][0] for m in matched]
     return MeetingRays(xa, xb, len(matched), max(_rad_per_px(view_a.cam), _rad_per_px(view_b.cam)),
-                       cov_a if has_cov else None, cov_b if has_cov else None)
+                       cov_a if has_cov else None, cov_b if has_cov else None,
+                       [(ids[a], ids[b]) for a, b in zip(i, j)])
 
 
 def _depths(p, q, T):

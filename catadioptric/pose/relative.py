@@ -29,7 +29,7 @@ import numpy as np
 
 from .._checks import CatadioptricError, as_scalar
 from .bundle import TwoViewFit, refine_two_view
-from .central import meeting_rays, translation_direction_from_crossings
+from .central import _residual_weights, meeting_rays, translation_direction_from_crossings
 from .epipolar import refine_with_crossings
 from .families import FamilyEstimate, ViewLines, fit_view_families, is_central
 from .rotation import rotation_angle_deg
@@ -210,7 +210,30 @@ def _scale_by_search(va, vb, lines, dirs, R, t_dir, offset, sigma, n_pixels=12):
     return float(np.exp(logs[k]))
 
 
-def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, sigma_cost, pixel_sigma):
+def _corners(meeting, crossing, R, t_dir, lines, va, ea):
+    """The refinement's pairs of lines whose meeting rays are inliers of ``crossing`` (stage 1),
+    with the deviation of each one's epipolar residual at ``R``, ``t_dir`` (from its planes' fits
+    in both views, as stage 1 weighs it); ``(None, None)`` when there are none."""
+    if meeting is None or crossing is None or crossing.inliers is None or meeting.pairs is None \
+            or meeting.cov_a is None:
+        return None, None
+    index = {va.line_id[ea[key].lines[ka]]: li for li, (key, ka, kb) in enumerate(lines)
+             if ka is not None and kb is not None}
+    W, _ = _residual_weights(meeting.xa @ R.T, meeting.xb, R @ meeting.cov_a @ R.T, meeting.cov_b,
+                             0.1 * crossing.threshold_rad / 3.0)
+    sd = np.sqrt(np.einsum("i,kij,j->k", t_dir, W, t_dir))
+    pairs, sig = [], []
+    for k in np.flatnonzero(crossing.inliers):
+        i, j = meeting.pairs[k]
+        if i in index and j in index:
+            pairs.append((index[i], index[j]))
+            sig.append(sd[k])
+    if not pairs:
+        return None, None
+    return np.array(pairs), np.array(sig)
+
+
+def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, sigma_cost, pixel_sigma, meeting=None):
     """Starting translation and two-view refinement of one rotation candidate. Returns
     ``(TwoViewFit or None, lines matched)``; None when fewer than two lines are matched in both
     views."""
@@ -286,10 +309,11 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, s
         if kb is not None:
             uv_b.append(_pixels_of(vb, eb[key], kb, max_pixels))
             own_b.append(np.full(len(uv_b[-1]), li))
+    corners, corner_sigma = _corners(meeting, crossing, R, t_dir, lines, va, ea)
     fit = refine_two_view(va.cam, vb.cam, R, t0, dirs_a, np.array(pts), np.array([fam_index[k] for k, _, _ in lines]),
                           np.concatenate(uv_a), np.concatenate(own_a), np.concatenate(uv_b), np.concatenate(own_b),
                           centres=(ea[keys[0]].centre, eb[keys[0]].centre), sigma_cost=sigma_cost,
-                          pixel_sigma=pixel_sigma)
+                          pixel_sigma=pixel_sigma, corners=corners, corner_sigma=corner_sigma)
     return fit, len(matched)
 
 
@@ -439,7 +463,8 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
         while todo:
             for i in todo:
                 fit, n_m = _noncentral_candidate(out[i], keys, view_a, view_b, ea, eb, stage[i][2],
-                                                 max_pixels=max_pixels, sigma_cost=sigma_cost, pixel_sigma=pixel_sigma)
+                                                 max_pixels=max_pixels, sigma_cost=sigma_cost, pixel_sigma=pixel_sigma,
+                                                 meeting=rays)
                 n_matched = max(n_matched, n_m)
                 done.add(i)
                 if fit is not None:
