@@ -28,6 +28,7 @@ from .._checks import CatadioptricError
 from ..linefit._common import _HALF_NORMAL_MEDIAN
 from ..linefit.jacobian import image_jacobian, project_with_jacobian
 from ._kernels import reduced_normal_equations
+from .meetings import meeting_terms
 from .rotation import exp_rotation, skew
 
 __all__ = ["TwoViewFit", "refine_two_view"]
@@ -142,49 +143,8 @@ class _Problem:
         return s, nv, al, rho, u, tv / ntv, ntv, float(np.exp(y[5]))
 
     def corner_terms(self, R, y):
-        """Where two lines meet (``self.corners``, pairs of lines of different families): the ray
-        from each view's centre that meets both lines (where their planes through that centre
-        meet) and the epipolar residual of the two rays, ``t^ . (R x_A x x_B)`` (unit rays): zero
-        when the lines meet, and zero too when they do not but the two rays lie in one plane with
-        the baseline (a line parallel to the baseline), as for the meeting rays of stage 1. In
-        units of ``self.corner_sigma``; ``r (K,)`` and its Jacobian ``J (K, ny)`` (rotation,
-        translation's direction, the two families' directions and the two lines' charts; the
-        scale cancels). The derivatives in the rays' own coordinates are central differences."""
-        K = len(self.corners)
-        J = np.zeros((K, self.ny))
-        if K == 0:
-            return np.zeros(0), J
-        s, nv, al, rho, u, that, ntv, _ = self.parts(y)
-        l1, l2 = self.corners[:, 0], self.corners[:, 1]
-        f1, f2 = self.fam[l1], self.fam[l2]
-        r1, r2 = rho[l1], rho[l2]
-        # in B's orientation, relative to c_A, in units of the baseline: U = R (P - c_A) / k, T = R s
-        X = np.stack([(u[l1] / r1[:, None]) @ R.T, s[f1] @ R.T, (u[l2] / r2[:, None]) @ R.T, s[f2] @ R.T,
-                      np.broadcast_to(that, (K, 3))], axis=1)  # (K, 5, 3)
-        r = _transversal_residual(X)
-        h = 1e-7
-        D = np.empty((K, 5, 3))
-        for a in range(5):
-            for c in range(3):
-                Xp, Xm = X.copy(), X.copy()
-                Xp[:, a, c] += h
-                Xm[:, a, c] -= h
-                D[:, a, c] = (_transversal_residual(Xp) - _transversal_residual(Xm)) / (2 * h)
-        k = np.arange(K)
-        # rotation (left): dX = -[X]_x w for the four rotated vectors
-        J[:, 0:3] = sum(-np.einsum("ki,kij->kj", D[:, a], skew(X[:, a])) for a in range(4))
-        dthat = np.stack([(self.f1 - that * (that @ self.f1)) / ntv, (self.f2 - that * (that @ self.f2)) / ntv])
-        J[:, 3:5] = D[:, 4] @ dthat.T
-        base = 6 + 2 * self.F
-        for a, l, f in ((0, l1, f1), (2, l2, f2)):
-            du = -np.sin(al[l])[:, None] * self.e1[f] + np.cos(al[l])[:, None] * self.e2[f]
-            J[k, base + 2 * l] = np.sum(D[:, a] * ((du / rho[l][:, None]) @ R.T), 1)
-            J[k, base + 2 * l + 1] = np.sum(D[:, a] * ((-u[l] / rho[l][:, None] ** 2) @ R.T), 1)
-            for j, e in enumerate((self.e1[f], self.e2[f])):
-                ds = (e - s[f] * np.sum(s[f] * e, 1, keepdims=True)) / nv[f][:, None]
-                J[k, 6 + 2 * f + j] = np.sum(D[:, a + 1] * (ds @ R.T), 1)
-        sig = self.corner_sigma
-        return r / sig, J / sig[:, None]
+        """The meeting lines' residuals and Jacobian (:func:`catadioptric.pose.meetings.meeting_terms`)."""
+        return meeting_terms(self, R, y)
 
     def translation(self, R, y) -> np.ndarray:
         """``t`` of ``x_B = R x_A + t``."""
@@ -359,18 +319,6 @@ def _weights(e, sigma, c2, robust, mask):
     # a pixel whose point has no image costs as much as a far outlier
     cost += float(np.sum(mask & ~np.isfinite(np.sum(e**2, axis=1)))) * (c2 * np.log1p(1e4 / c2) if robust else 1e4)
     return w, cost
-
-
-def _transversal_residual(X):
-    """``X (K, 5, 3)``: two lines (point relative to c_A and direction, each), then the unit
-    translation, all in B's orientation and units of the baseline. The epipolar residual of the
-    rays from c_A and from c_B (at ``-t^`` from c_A: a point at ``U`` from c_A is at ``U + t^`` from
-    c_B) that meet both lines."""
-    U1, T1, U2, T2, th = (X[:, a] for a in range(5))
-    xa = np.cross(np.cross(U1, T1), np.cross(U2, T2))
-    xb = np.cross(np.cross(U1 + th, T1), np.cross(U2 + th, T2))
-    den = np.maximum(np.linalg.norm(xa, axis=1) * np.linalg.norm(xb, axis=1), 1e-300)
-    return np.sum(th * np.cross(xa, xb), axis=1) / den
 
 
 def _corner_system(pb, R, y, sigma, c2, robust, cmask):

@@ -1,0 +1,84 @@
+"""The lines that meet, in the two-view refinement (:mod:`catadioptric.pose.bundle`).
+
+Stage 1 of :func:`~catadioptric.pose.relative_pose` finds pairs of lines whose meeting rays (where
+their two planes through each view's centre meet) obey the epipolar constraint
+(:func:`~catadioptric.pose.central.translation_direction_from_crossings`). The pixels of a line
+pin its plane through each centre far better than where the line lies in it, and two planes
+always meet: the lines alone barely tell a near-central rig's translation direction. These pairs
+therefore enter the refinement as residuals of their own: from each view's centre, the ray that
+meets both current 3-D lines,
+
+    x_A = (V_1 x s_1) x (V_2 x s_2),   x_B = ((R V_1 + t^) x R s_1) x ((R V_2 + t^) x R s_2)
+
+(``V_i`` a point of line i relative to ``c_A`` in units of the baseline, ``s_i`` its direction,
+``t^`` the unit displacement between the centres), and the epipolar residual
+``t^ . (R x_A x x_B)`` of the two unit rays. It is zero when the lines meet, and also when they do
+not but both rays lie in one plane with the baseline (a line parallel to the baseline lies in
+one plane with both centres, and so does its meeting ray with any other line): on the
+benchmark's hyperbolic pair 4 only 18 of stage 1's 146 inlier meeting rays belong to lines that
+meet, and asking the lines themselves to meet biased the rotation
+(tools/near_central_variants/meeting_lines.patch; docs/relative_pose.md, step 4).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .rotation import skew
+
+__all__ = ["meeting_terms"]
+
+
+def meeting_terms(pb, R, y):
+    """Where two lines meet (``pb.corners``, pairs of lines of different families, of the
+    two-view refinement's problem ``pb``): the epipolar residual (module docstring) at rotation ``R``
+    and unknowns ``y``, in units of ``pb.corner_sigma``; ``r (K,)`` and its Jacobian ``J (K, ny)``
+    (rotation, translation's direction, the two families' directions and the two lines' charts;
+    the scale cancels). The derivatives in the rays' own coordinates are central differences,
+    chained analytically to the unknowns."""
+    K = len(pb.corners)
+    J = np.zeros((K, pb.ny))
+    if K == 0:
+        return np.zeros(0), J
+    s, nv, al, rho, u, that, ntv, _ = pb.parts(y)
+    l1, l2 = pb.corners[:, 0], pb.corners[:, 1]
+    f1, f2 = pb.fam[l1], pb.fam[l2]
+    r1, r2 = rho[l1], rho[l2]
+    # in B's orientation, relative to c_A, in units of the baseline: U = R (P - c_A) / k, T = R s
+    X = np.stack([(u[l1] / r1[:, None]) @ R.T, s[f1] @ R.T, (u[l2] / r2[:, None]) @ R.T, s[f2] @ R.T,
+                  np.broadcast_to(that, (K, 3))], axis=1)  # (K, 5, 3)
+    r = _transversal_residual(X)
+    h = 1e-7
+    D = np.empty((K, 5, 3))
+    for a in range(5):
+        for c in range(3):
+            Xp, Xm = X.copy(), X.copy()
+            Xp[:, a, c] += h
+            Xm[:, a, c] -= h
+            D[:, a, c] = (_transversal_residual(Xp) - _transversal_residual(Xm)) / (2 * h)
+    k = np.arange(K)
+    # rotation (left): dX = -[X]_x w for the four rotated vectors
+    J[:, 0:3] = sum(-np.einsum("ki,kij->kj", D[:, a], skew(X[:, a])) for a in range(4))
+    dthat = np.stack([(pb.f1 - that * (that @ pb.f1)) / ntv, (pb.f2 - that * (that @ pb.f2)) / ntv])
+    J[:, 3:5] = D[:, 4] @ dthat.T
+    base = 6 + 2 * pb.F
+    for a, l, f in ((0, l1, f1), (2, l2, f2)):
+        du = -np.sin(al[l])[:, None] * pb.e1[f] + np.cos(al[l])[:, None] * pb.e2[f]
+        J[k, base + 2 * l] = np.sum(D[:, a] * ((du / rho[l][:, None]) @ R.T), 1)
+        J[k, base + 2 * l + 1] = np.sum(D[:, a] * ((-u[l] / rho[l][:, None] ** 2) @ R.T), 1)
+        for j, e in enumerate((pb.e1[f], pb.e2[f])):
+            ds = (e - s[f] * np.sum(s[f] * e, 1, keepdims=True)) / nv[f][:, None]
+            J[k, 6 + 2 * f + j] = np.sum(D[:, a + 1] * (ds @ R.T), 1)
+    sig = pb.corner_sigma
+    return r / sig, J / sig[:, None]
+
+
+def _transversal_residual(X):
+    """``X (K, 5, 3)``: two lines (point relative to c_A and direction, each), then the unit
+    translation, all in B's orientation and units of the baseline. The epipolar residual of the
+    rays from c_A and from c_B (at ``-t^`` from c_A: a point at ``U`` from c_A is at ``U + t^`` from
+    c_B) that meet both lines."""
+    U1, T1, U2, T2, th = (X[:, a] for a in range(5))
+    xa = np.cross(np.cross(U1, T1), np.cross(U2, T2))
+    xb = np.cross(np.cross(U1 + th, T1), np.cross(U2 + th, T2))
+    den = np.maximum(np.linalg.norm(xa, axis=1) * np.linalg.norm(xb, axis=1), 1e-300)
+    return np.sum(th * np.cross(xa, xb), axis=1) / den
