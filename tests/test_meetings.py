@@ -1,0 +1,64 @@
+"""The meeting lines' residual of the two-view refinement (catadioptric.pose.meetings): zero for
+lines that meet and for a line parallel to the baseline, not for lines that pass apart, and its
+Jacobian agrees with finite differences of the residual itself."""
+import numpy as np
+import pytest
+
+from catadioptric.pose.bundle import _Problem
+from catadioptric.pose.meetings import _transversal_residual
+from catadioptric.pose.rotation import exp_rotation
+from catadioptric.rigspec import load_rig
+
+
+def _rays(U1, T1, U2, T2, th):
+    return _transversal_residual(np.stack([U1, T1, U2, T2, th])[None])[0]
+
+
+def test_lines_that_meet_have_no_residual():
+    rng = np.random.default_rng(0)
+    th = np.array([1.0, 0.2, -0.1]) / np.linalg.norm([1.0, 0.2, -0.1])
+    X = np.array([3.0, 5.0, 1.0])  # the meeting point, relative to c_A, in B's orientation
+    T1, T2 = rng.normal(size=3), rng.normal(size=3)
+    assert abs(_rays(X + 2.0 * T1, T1, X - 1.5 * T2, T2, th)) < 1e-14
+    # two lines 0.3 baselines apart
+    n = np.cross(T1, T2) / np.linalg.norm(np.cross(T1, T2))
+    assert abs(_rays(X + 2.0 * T1, T1, X + 0.3 * n - 1.5 * T2, T2, th)) > 1e-3
+
+
+def test_a_line_parallel_to_the_baseline_meets_every_line_in_the_residual():
+    """Both rays then lie in the plane of that line and both centres: the epipolar residual is
+    zero although the lines do not meet (most of stage 1's inlier meeting rays are such)."""
+    th = np.array([1.0, 0.0, 0.0])
+    assert abs(_rays(np.array([0.0, 4.0, 1.0]), th, np.array([2.0, -3.0, 0.5]), np.array([0.0, 0.3, 1.0]), th)) < 1e-14
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_the_jacobian_is_the_residual_s_derivative(seed):
+    cam = load_rig("hyperboloid", width=320, height=240)
+    rng = np.random.default_rng(seed)
+    dirs = rng.normal(size=(3, 3))
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    pts = rng.normal(size=(6, 3)) * 5
+    fam = np.array([0, 1, 2, 0, 1, 2])
+    uv = rng.uniform(50, 200, (12, 2))
+    R = exp_rotation(rng.normal(size=3) * 0.3)
+    pb = _Problem(cam, cam, dirs, pts, fam, uv, np.repeat(np.arange(6), 2), np.tile([0, 1], 6),
+                  (np.zeros(3), np.zeros(3)), R, np.array([1.0, 0.2, 0.1]),
+                  corners=[[0, 1], [1, 2], [3, 5], [4, 0]], corner_sigma=[0.01, 0.02, 0.01, 0.03])
+    y = pb.start() + rng.normal(size=pb.ny) * 0.05
+    r, J = pb.corner_terms(R, y)
+    Jn = np.zeros_like(J)
+    h = 1e-6
+    for i in range(pb.ny):
+        if i < 3:
+            w = np.zeros(3)
+            w[i] = h
+            Jn[:, i] = (pb.corner_terms(exp_rotation(w) @ R, y)[0] - pb.corner_terms(exp_rotation(-w) @ R, y)[0]) / (2 * h)
+        else:
+            yp, ym = y.copy(), y.copy()
+            yp[i] += h
+            ym[i] -= h
+            Jn[:, i] = (pb.corner_terms(R, yp)[0] - pb.corner_terms(R, ym)[0]) / (2 * h)
+    assert np.max(np.abs(J - Jn)) < 1e-6 * np.max(np.abs(J))
+    # the scale (y[5]) does not enter
+    assert np.all(J[:, 5] == 0)

@@ -1,0 +1,87 @@
+"""The label path of the relative-pose benchmark on a few of its pairs, at the noise levels asked:
+the exact model's and the central baseline's median rotation and translation-direction errors,
+without writing results (for comparing two versions of the code on the same draws).
+
+    .venv/bin/python tools/benchmark_subset.py hyperboloid,sphere --pairs 20 --noise 2 [--json OUT]
+
+The pairs, their seeds and the pixels are the benchmark's (validate/relative_pose.toml, one draw
+per pair and noise level, every pixel of each line); it needs the benchmark's rendered datasets
+(``render/out/relative_pose_benchmark``, made by ``catadioptric validate benchmark``). To compare
+two commits, run it in a worktree of each (``git worktree add /tmp/old COMMIT``, then
+``PYTHONPATH=/tmp/old .venv/bin/python /tmp/old/tools/benchmark_subset.py ...`` from the main
+checkout) and compare the medians, or the ``--json`` rows pair by pair.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+from multiprocessing import get_context
+
+import numpy as np
+
+from catadioptric.validate.benchmark import dataset_folder
+from catadioptric.validate.benchmark_spec import load_benchmark_spec, pairs_of
+
+
+def _one(args):
+    data, spec, config, pair, noise = args
+    from catadioptric.validate.relative_pose import evaluate_pair
+
+    r = evaluate_pair(dataset_folder(data, config, pair.renderer), pair.names, noise_levels=noise, draws=1,
+                      seed=[spec["seed"], pair.index], pixels=spec["pixels"], min_pixels=spec["min_pixels"],
+                      max_pixels=spec["max_pixels"])
+    rows = []
+    for d in r["draws"]:
+        c = d.get("central", {})
+        rows.append({"config": config, "pair": pair.index, "noise_px": d["noise_px"],
+                     "exact_deg": d.get("rotation_error_deg"), "central_deg": c.get("rotation_error_deg"),
+                     "exact_t_dir_deg": d.get("translation_direction_error_deg"),
+                     "central_t_dir_deg": c.get("translation_direction_error_deg"),
+                     "exact_ambiguous": d.get("ambiguous"), "central_ambiguous": c.get("ambiguous"),
+                     "seconds": d.get("seconds")})
+    return rows
+
+
+def _median(rows, key):
+    x = np.array([r[key] for r in rows if r[key] is not None], float)
+    return float(np.median(x)) if len(x) else float("nan")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("configs", help="comma-separated configuration names of the spec")
+    ap.add_argument("--pairs", type=int, default=20, help="the first N pairs of each configuration")
+    ap.add_argument("--noise", default="2", help="comma-separated noise levels (px)")
+    ap.add_argument("--spec", default="validate/relative_pose.toml")
+    ap.add_argument("--data", default="render/out/relative_pose_benchmark")
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--json", help="write every draw's errors here")
+    args = ap.parse_args()
+    spec = load_benchmark_spec(args.spec)
+    names = args.configs.split(",")
+    known = [c["name"] for c in spec["configs"]]
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        ap.error(f"configs: expected names among {known}, got {unknown}")
+    noise = [float(x) for x in args.noise.split(",")]
+    tasks = [(args.data, spec, c["name"], p, noise) for c in spec["configs"] if c["name"] in names
+             for p in pairs_of(spec, c)[:args.pairs]]
+    with get_context("spawn").Pool(args.workers) as pool:
+        rows = [r for rr in pool.imap_unordered(_one, tasks) for r in rr]
+    rows.sort(key=lambda r: (r["config"], r["noise_px"], r["pair"]))
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(rows, f, indent=1)
+    print("config | noise px | draws | exact rotation | central rotation | exact better | "
+          "exact t direction | central t direction (medians, degrees)")
+    for name in names:
+        for nz in noise:
+            sel = [r for r in rows if r["config"] == name and r["noise_px"] == nz]
+            both = [r for r in sel if r["exact_deg"] is not None and r["central_deg"] is not None]
+            better = sum(r["exact_deg"] < r["central_deg"] for r in both)
+            print(f"{name} | {nz:g} | {len(sel)} | {_median(sel, 'exact_deg'):.3f} | {_median(sel, 'central_deg'):.3f} | "
+                  f"{better}/{len(both)} | {_median(sel, 'exact_t_dir_deg'):.2f} | {_median(sel, 'central_t_dir_deg'):.2f}")
+
+
+if __name__ == "__main__":
+    main()
