@@ -515,7 +515,7 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     (deviation of its logarithm below ``release_scale``). Not used by
     :func:`~catadioptric.pose.relative_pose`: held at the right scale it helps (hyperboloid pairs
     0-19 at 2 px, the scale held wherever the start put it, with the meetings: median rotation
-    error 0.124 degree against 0.291 free), but the start's scale search mostly ends at a bound
+    error 0.143 degree against 0.291 free), but the start's scale search mostly ends at a bound
     of its range there (0.25 or 64 m), and held at the wrong scale the rotation is biased (the
     box scene of tests/test_relative_pose.py at 1 px: 1.24 degree held at 64 m, 0.07 free).
     """
