@@ -7,9 +7,10 @@ without writing results (for comparing two versions of the code on the same draw
 The pairs, their seeds and the pixels are the benchmark's (validate/relative_pose.toml, one draw
 per pair and noise level, every pixel of each line); it needs the benchmark's rendered datasets
 (``render/out/relative_pose_benchmark``, made by ``catadioptric validate benchmark``). To compare
-two commits, run it in a worktree of each (``git worktree add /tmp/old COMMIT``, then
-``PYTHONPATH=/tmp/old .venv/bin/python /tmp/old/tools/benchmark_subset.py ...`` from the main
-checkout) and compare the medians, or the ``--json`` rows pair by pair.
+two commits, run it from the main checkout on the library of each (``git worktree add /tmp/old
+COMMIT``, then ``PYTHONPATH=/tmp/old .venv/bin/python tools/benchmark_subset.py ...``: the
+package on ``PYTHONPATH`` comes first, in the workers too) and compare the medians, or the
+``--json`` rows pair by pair.
 """
 from __future__ import annotations
 
