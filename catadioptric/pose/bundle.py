@@ -28,7 +28,7 @@ from .._checks import CatadioptricError
 from ..linefit._common import _HALF_NORMAL_MEDIAN
 from ..linefit.jacobian import image_jacobian, project_with_jacobian
 from ._kernels import reduced_normal_equations
-from .meetings import meeting_terms
+from .meetings import check_corners, meeting_terms
 from .rotation import exp_rotation, skew
 
 __all__ = ["TwoViewFit", "refine_two_view"]
@@ -530,6 +530,7 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     view = np.concatenate([np.zeros(len(uv_a), int), np.ones(len(uv_b), int)])
     if centres is None:
         centres = (_rays_centre(cam_a, uv_a), _rays_centre(cam_b, uv_b))
+    corners, corner_sigma = check_corners(corners, corner_sigma, np.asarray(line_family, int).reshape(-1))
     R = np.asarray(R0, float)
     pb = _Problem(cam_a, cam_b, np.asarray(dirs0, float), np.asarray(points0, float), line_family, uv, owner, view,
                   centres, R, t0, warm_start, corners, corner_sigma)

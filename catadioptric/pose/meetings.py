@@ -23,9 +23,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._checks import CatadioptricError
 from .rotation import skew
 
-__all__ = ["meeting_terms"]
+__all__ = ["meeting_terms", "check_corners"]
 
 
 def meeting_terms(pb, R, y):
@@ -82,3 +83,37 @@ def _transversal_residual(X):
     xb = np.cross(np.cross(U1 + th, T1), np.cross(U2 + th, T2))
     den = np.maximum(np.linalg.norm(xa, axis=1) * np.linalg.norm(xb, axis=1), 1e-300)
     return np.sum(th * np.cross(xa, xb), axis=1) / den
+
+
+def check_corners(corners, corner_sigma, line_family):
+    """``(corners (K, 2) int, corner_sigma (K,))`` checked: pairs of line indices of different
+    families, positive finite deviations; ``(None, None)`` for none."""
+    if corners is None:
+        if corner_sigma is not None:
+            raise CatadioptricError("corner_sigma: expected None without corners, got deviations")
+        return None, None
+    c = np.asarray(corners)
+    if c.size == 0:
+        return None, None
+    if c.ndim != 2 or c.shape[1] != 2 or not np.issubdtype(c.dtype, np.integer):
+        raise CatadioptricError(f"corners: expected (K, 2) integer line indices, got an array of shape {c.shape} "
+                                f"and dtype {c.dtype}")
+    L = len(line_family)
+    bad = (c < 0) | (c >= L)
+    if bad.any():
+        raise CatadioptricError(f"corners: expected line indices in [0, {L}), got {int(c[bad][0])}")
+    same = line_family[c[:, 0]] == line_family[c[:, 1]]
+    if same.any():
+        k = int(np.flatnonzero(same)[0])
+        raise CatadioptricError(f"corners: expected pairs of lines of different families, got lines {c[k].tolist()} "
+                                f"of family {int(line_family[c[k, 0]])} (row {k})")
+    if corner_sigma is None:
+        raise CatadioptricError("corner_sigma: expected one deviation (radians) per corner, got None")
+    sig = np.broadcast_to(np.asarray(corner_sigma, float), (len(c),)) if np.ndim(corner_sigma) == 0 \
+        else np.asarray(corner_sigma, float).reshape(-1)
+    if len(sig) != len(c):
+        raise CatadioptricError(f"corner_sigma: expected {len(c)} deviations (one per corner), got {len(sig)}")
+    if not np.all(np.isfinite(sig) & (sig > 0)):
+        raise CatadioptricError(f"corner_sigma: expected positive finite deviations, got "
+                                f"{float(sig[~(np.isfinite(sig) & (sig > 0))][0])!r}")
+    return c.astype(int), sig.copy()
