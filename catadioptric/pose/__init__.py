@@ -12,6 +12,7 @@ between two views ``x_B = R x_A + t`` (mirror frames). Lines are Pluecker ``(s, 
 | `translation_from_lines` | `translation.py` | R, world lines, rays of their pixels | t (absolute pose) |
 | `relative_translation_from_lines` | `translation.py` | R, lines fitted in each view, rays of both | t (metric, non-central) |
 | `refine_two_view` | `bundle.py` | R, t, lines, pixels of both views | R, t, lines, covariance (non-central) |
+| `refine_far_or_free` | `scale.py` | as `refine_two_view` | its fit with the scene held far (the rig's central limit), or free where the pixels fix the scale |
 | `translation_direction_from_crossings` | `central.py` | R, planes of the lines matched in both views | direction between the views' centres |
 | `refine_with_crossings` | `epipolar.py` | directions with covariances, inlier meeting rays, R | R and the direction between the centres refined together, covariance |
 | `family_matches` | `matching.py` | each view's families (unmatched) | the assignments of B's families to A's a rotation allows |
@@ -29,6 +30,7 @@ from .epipolar import EpipolarFit, refine_with_crossings
 from .families import FamilyEstimate, ViewLines, fit_view_families
 from .matching import FamilyMatch, LineMatch, family_matches, match_lines
 from .relative import Candidate, RelativePose, relative_pose
+from .scale import refine_far_or_free
 from .select import ModelChoice, choose_model
 from .rotation import DirectionRotation, refine_rotation, rotation_angle_deg, rotation_from_directions
 from .signs import SignCandidate, sign_candidates
@@ -37,7 +39,7 @@ from .translation import relative_translation_from_lines, translation_from_lines
 __all__ = [
     "rotation_from_directions", "rotation_angle_deg", "refine_rotation", "DirectionRotation",
     "sign_candidates", "SignCandidate", "translation_from_lines", "relative_translation_from_lines",
-    "refine_two_view", "TwoViewFit", "translation_direction_from_crossings", "CrossingFit",
+    "refine_two_view", "TwoViewFit", "refine_far_or_free", "translation_direction_from_crossings", "CrossingFit",
     "refine_with_crossings", "EpipolarFit",
     "ViewLines", "FamilyEstimate", "fit_view_families", "relative_pose", "RelativePose", "Candidate",
     "family_matches", "FamilyMatch", "match_lines", "LineMatch", "choose_model", "ModelChoice",

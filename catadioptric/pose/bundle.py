@@ -46,7 +46,10 @@ class TwoViewFit:
     the inliers), ``cost``: the robust cost ``sum rho(|e_j|^2 / sigma_cost^2)`` of the robust
     stage (comparable between candidates refined with the same ``sigma_cost``),
     ``rms_px (2,)``: inlier rms per view, ``inliers_a``, ``inliers_b`` (masks over the pixels
-    given), ``n_pixels (2,)`` inliers per view, ``iterations``."""
+    given), ``n_pixels (2,)`` inliers per view, ``iterations``. Set by
+    :func:`~catadioptric.pose.scale.refine_far_or_free`: ``scale_held`` (the scene held far,
+    the pixels not fixing its scale) and ``far_gap`` (the far fit's robust cost minus the free
+    one's; nan when not compared)."""
 
     R: np.ndarray
     t: np.ndarray
@@ -60,6 +63,8 @@ class TwoViewFit:
     inliers_b: np.ndarray
     n_pixels: np.ndarray
     iterations: int
+    scale_held: bool = False
+    far_gap: float = float("nan")
 
 
 def _basis(s):

@@ -16,7 +16,8 @@ Steps (docs/relative_pose.md):
    rays (:func:`~catadioptric.pose.epipolar.refine_with_crossings`). Central rigs: that is the
    estimate. Non-central rigs: the best candidates are then refined with their metric
    translation, directions and lines on the pixels of both views
-   (:func:`~catadioptric.pose.bundle.refine_two_view`), starting there;
+   (:func:`~catadioptric.pose.bundle.refine_two_view`), starting there, with the scene held far
+   unless the pixels fix its scale (:func:`~catadioptric.pose.scale.refine_far_or_free`);
 4. the candidates are ranked by that two-view cost. The best is the answer when its margin
    over the second (a log-likelihood ratio, chi-square units) is at least ``decisive``;
    otherwise the result is ``ambiguous`` and lists every candidate.
@@ -28,12 +29,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._checks import CatadioptricError, as_scalar
-from .bundle import TwoViewFit, refine_two_view
+from .bundle import TwoViewFit
 from .central import _residual_weights, meeting_rays, translation_direction_from_crossings
 from .epipolar import refine_with_crossings
 from .families import FamilyEstimate, ViewLines, fit_view_families, is_central
 from .rotation import rotation_angle_deg
+from .scale import refine_far_or_free, scale_by_search
 from .signs import sign_candidates
+from .translation import triangulate_line
 
 __all__ = ["Candidate", "RelativePose", "relative_pose"]
 
@@ -114,32 +117,6 @@ def _subsample(mask, k):
     return idx[np.round(np.linspace(0, len(idx) - 1, k)).astype(int)]
 
 
-def _triangulate(s, o, d, prior=None):
-    """The point (normal to ``s``) of the line along unit ``s`` that best meets rays ``o, d``, and
-    whether the rays fix it (``(q, well_posed)``). A line parallel to the baseline lies in one
-    plane with both centres: two near-central views then see only that plane, and the point
-    along it comes from ``prior`` (a point, taken where the rays leave it free)."""
-    e1 = np.cross(s, [1.0, 0.0, 0.0] if abs(s[0]) < 0.8 else [0.0, 1.0, 0.0])
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(s, e1)
-    # reciprocal product of the line (s, x e1' + y e2') with the ray (d, o x d), e' spanning m
-    m1, m2 = np.cross(e1, s), np.cross(e2, s)  # moments of unit offsets along e1, e2
-    A = np.stack([d @ m1, d @ m2], axis=1)
-    rhs = -(np.cross(o, d) @ s)
-    sine = np.maximum(np.linalg.norm(np.cross(d, s), axis=1), 1e-9)
-    A, rhs = A / sine[:, None], rhs / sine
-    N = A.T @ A
-    ev = np.linalg.eigvalsh(N)
-    well = bool(ev[0] > 1e-4 * ev[1])
-    if prior is not None and not well:  # a ridge towards the prior, felt only along the free direction
-        p = np.array([prior @ e1, prior @ e2])
-        lam = 1e-3 * ev[1]
-        xy = np.linalg.solve(N + lam * np.eye(2), A.T @ rhs + lam * p)
-    else:
-        xy = np.linalg.lstsq(A, rhs, rcond=None)[0]
-    return xy[0] * e1 + xy[1] * e2, well
-
-
 def _two_view_direction(ea: FamilyEstimate, eb: FamilyEstimate, R) -> np.ndarray:
     """A family's direction in A from the planes (through each view's centre) of its lines in both
     views: the direction normal to all of them. One view of a near-central rig places each
@@ -157,57 +134,6 @@ def _pixels_of(view, est: FamilyEstimate, k, max_pixels):
     line = est.lines[k]
     idx = _subsample(est.inliers[k], max_pixels)
     return view.uv[line][idx]
-
-
-def _scale_by_search(va, vb, lines, dirs, R, t_dir, offset, sigma, n_pixels=12):
-    """The length ``alpha`` of ``t = alpha t_dir + offset`` at which the matched lines, triangulated
-    from both views, best fit their pixels (a truncated sum of squared pixel distances, on a few
-    pixels per line): a coarse search over 0.25 to 64 metres in octaves, then a parabola in
-    ``log alpha`` through the best and its neighbours. ``lines``: per matched line ``(family index,
-    uv_A, uv_B)``. A near-central rig hardly tells the lengths apart; the refinement then moves
-    ``alpha`` along its flat valley at no cost."""
-    from ..linefit.distances import _closest_depths, _depth_refine
-
-    def few(uv):
-        return uv[np.unique(np.round(np.linspace(0, len(uv) - 1, min(n_pixels, len(uv)))).astype(int))]
-
-    sub = [(f, few(ua), few(ub)) for f, ua, ub in lines]
-    ra = [va.cam.backproject(u) for _, u, _ in sub]
-    rb = [vb.cam.backproject(u) for _, _, u in sub]
-    uv_a = np.concatenate([u for _, u, _ in sub])
-    uv_b = np.concatenate([u for _, _, u in sub])
-    cap = (3.0 * sigma) ** 2
-
-    def cost(alpha):
-        t = alpha * t_dir + offset
-        qa, sa, qb, sb = [], [], [], []
-        for (f, ua, ub), a, b in zip(sub, ra, rb):
-            s = dirs[f]
-            o = np.concatenate([a.origins[a.valid], (b.origins[b.valid] - t) @ R])
-            d = np.concatenate([a.directions[a.valid], b.directions[b.valid] @ R])
-            q, _ = _triangulate(s, o, d)
-            qa.append(np.tile(q, (len(ua), 1)))
-            sa.append(np.tile(s, (len(ua), 1)))
-            qb.append(np.tile(R @ q + t, (len(ub), 1)))
-            sb.append(np.tile(R @ s, (len(ub), 1)))
-        total = 0.0
-        for cam, uv, q, s in ((va.cam, uv_a, np.concatenate(qa), np.concatenate(sa)),
-                              (vb.cam, uv_b, np.concatenate(qb), np.concatenate(sb))):
-            r = cam.backproject(uv)
-            lam0 = _closest_depths(q, s, np.nan_to_num(r.origins), np.nan_to_num(r.directions))
-            _, dist, _, _ = _depth_refine(cam, q, s, uv, lam0, iters=2)
-            total += float(np.sum(np.minimum(np.where(np.isfinite(dist), dist, np.inf) ** 2, cap)))
-        return total
-
-    logs = np.log(0.25) + np.log(2.0) * np.arange(9)
-    costs = np.array([cost(np.exp(x)) for x in logs])
-    k = int(np.argmin(costs))
-    if 0 < k < len(logs) - 1:
-        c0, c1, c2 = costs[k - 1:k + 2]
-        den = c0 - 2.0 * c1 + c2
-        if den > 0:
-            return float(np.exp(logs[k] + 0.5 * np.log(2.0) * (c0 - c2) / den))
-    return float(np.exp(logs[k]))
 
 
 def _corners(meeting, crossing, R, t_dir, lines, va, ea):
@@ -260,7 +186,7 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, s
     fam_index = {k: i for i, k in enumerate(used)}
     dirs_a = np.array([_two_view_direction(ea[k], eb[k], R) for k in used])
     offset = eb[keys[0]].centre - R @ ea[keys[0]].centre
-    alpha = _scale_by_search(va, vb, [(fam_index[key], _pixels_of(va, ea[key], ka, max_pixels),
+    alpha = scale_by_search(va, vb, [(fam_index[key], _pixels_of(va, ea[key], ka, max_pixels),
                                        _pixels_of(vb, eb[key], kb, max_pixels)) for key, ka, kb in matched],
                              dirs_a, R, t_dir, offset, sigma_cost)
     t0 = alpha * t_dir + offset
@@ -271,7 +197,7 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, s
     c_b_in_a = R.T @ (eb[keys[0]].centre - t0)
     rays_ab = [(dirs_a[fam_index[key]], np.concatenate([ok(a)[0], (ok(b)[0] - t0) @ R]),
                 np.concatenate([ok(a)[1], ok(b)[1] @ R])) for (key, _, _), a, b in zip(matched, ra, rb)]
-    tri = [_triangulate(*r) for r in rays_ab]
+    tri = [triangulate_line(*r) for r in rays_ab]
     dist = [np.linalg.norm(np.cross(q - c_a, r[0])) for (q, well), r in zip(tri, rays_ab) if well]
     d_med = float(np.median(dist)) if dist else 10.0 * float(np.linalg.norm(t0))
     pts = []
@@ -280,7 +206,7 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, s
             u = np.cross(ea[key].normals[ka], s)
             u = u / np.linalg.norm(u) if np.linalg.norm(u) > 0 else u
             u = -u if len(d) and np.mean(d @ u) < 0 else u
-            q, _ = _triangulate(s, o, d, prior=c_a + d_med * u)
+            q, _ = triangulate_line(s, o, d, prior=c_a + d_med * u)
         pts.append(q)
     lines = list(matched)
     for key, ka, kb in single:
@@ -310,10 +236,10 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, s
             uv_b.append(_pixels_of(vb, eb[key], kb, max_pixels))
             own_b.append(np.full(len(uv_b[-1]), li))
     corners, corner_sigma = _corners(meeting, crossing, R, t_dir, lines, va, ea)
-    fit = refine_two_view(va.cam, vb.cam, R, t0, dirs_a, np.array(pts), np.array([fam_index[k] for k, _, _ in lines]),
-                          np.concatenate(uv_a), np.concatenate(own_a), np.concatenate(uv_b), np.concatenate(own_b),
-                          centres=(ea[keys[0]].centre, eb[keys[0]].centre), sigma_cost=sigma_cost,
-                          pixel_sigma=pixel_sigma, corners=corners, corner_sigma=corner_sigma)
+    fit = refine_far_or_free(va.cam, vb.cam, R, t0, dirs_a, np.array(pts), np.array([fam_index[k] for k, _, _ in lines]),
+                             np.concatenate(uv_a), np.concatenate(own_a), np.concatenate(uv_b), np.concatenate(own_b),
+                             centres=(ea[keys[0]].centre, eb[keys[0]].centre), sigma_cost=sigma_cost,
+                             pixel_sigma=pixel_sigma, corners=corners, corner_sigma=corner_sigma)
     return fit, len(matched)
 
 

@@ -10,7 +10,7 @@ import numpy as np
 
 from .._checks import CatadioptricError, as_float_array, as_rotation
 
-__all__ = ["translation_from_lines", "relative_translation_from_lines"]
+__all__ = ["translation_from_lines", "relative_translation_from_lines", "triangulate_line"]
 
 
 def translation_from_lines(R, world_lines, ray_lines, line_index) -> np.ndarray:
@@ -112,3 +112,29 @@ def relative_translation_from_lines(R, lines_a, lines_b, rays_a, owner_a, rays_b
     res = np.full(len(ok), np.nan)
     res[ok] = c @ t - d
     return t, res
+
+
+def triangulate_line(s, o, d, prior=None):
+    """The point (normal to ``s``) of the line along unit ``s`` that best meets rays ``o, d``, and
+    whether the rays fix it (``(q, well_posed)``). A line parallel to the baseline lies in one
+    plane with both centres: two near-central views then see only that plane, and the point
+    along it comes from ``prior`` (a point, taken where the rays leave it free)."""
+    e1 = np.cross(s, [1.0, 0.0, 0.0] if abs(s[0]) < 0.8 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(s, e1)
+    # reciprocal product of the line (s, x e1' + y e2') with the ray (d, o x d), e' spanning m
+    m1, m2 = np.cross(e1, s), np.cross(e2, s)  # moments of unit offsets along e1, e2
+    A = np.stack([d @ m1, d @ m2], axis=1)
+    rhs = -(np.cross(o, d) @ s)
+    sine = np.maximum(np.linalg.norm(np.cross(d, s), axis=1), 1e-9)
+    A, rhs = A / sine[:, None], rhs / sine
+    N = A.T @ A
+    ev = np.linalg.eigvalsh(N)
+    well = bool(ev[0] > 1e-4 * ev[1])
+    if prior is not None and not well:  # a ridge towards the prior, felt only along the free direction
+        p = np.array([prior @ e1, prior @ e2])
+        lam = 1e-3 * ev[1]
+        xy = np.linalg.solve(N + lam * np.eye(2), A.T @ rhs + lam * p)
+    else:
+        xy = np.linalg.lstsq(A, rhs, rcond=None)[0]
+    return xy[0] * e1 + xy[1] * e2, well

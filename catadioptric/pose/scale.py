@@ -1,0 +1,137 @@
+"""The scene's scale in the two-view refinement of a non-central rig: where it starts, and whether
+the pixels fix it at all.
+
+A non-central rig tells a line's distance only through the spread of its reflected rays (millimetres
+to centimetres against lines metres away), so scaling the whole scene (the baseline and every line
+together) changes the pixels little: for a rig near the central configuration, by less than their
+noise. The refinement's cost is then flat along the scale, with shallow minima in the lines'
+distances, and where the free refinement stops along that valley moves the rotation by tenths of a
+degree (docs/relative_pose.md, "The scale: far unless the pixels fix it").
+
+* :func:`scale_by_search`: the starting length of the translation, from the matched lines'
+  pixels.
+* :func:`refine_far_or_free`: the refinement twice, with the scene held far away (the central
+  limit of the rig: the baseline ``far`` mirror sizes long and every line with it) and with the
+  scale free; the free fit is taken only when its robust cost is lower by more than ``tau``
+  (a likelihood ratio, chi-square units, one degree of freedom: the scale). The answer says which
+  (:attr:`~catadioptric.pose.bundle.TwoViewFit.scale_held`).
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from .._checks import CatadioptricError, as_scalar
+from .bundle import TwoViewFit, refine_two_view
+from .translation import triangulate_line
+
+__all__ = ["FAR", "TAU", "scale_by_search", "refine_far_or_free"]
+
+FAR = 1e4  # the held baseline, in mirror sizes (QuadricMirror.scale): 500-750 m for the presets' mirrors
+TAU = 6.63  # chi-square of one degree of freedom at 99 %: what the free scale must gain to be kept
+
+
+def scale_by_search(va, vb, lines, dirs, R, t_dir, offset, sigma, n_pixels=12):
+    """The length ``alpha`` of ``t = alpha t_dir + offset`` at which the matched lines, triangulated
+    from both views, best fit their pixels (a truncated sum of squared pixel distances, on a few
+    pixels per line): a coarse search over 0.25 to 64 metres in octaves, then a parabola in
+    ``log alpha`` through the best and its neighbours. ``va``, ``vb``: the views
+    (:class:`~catadioptric.pose.families.ViewLines`); ``lines``: per matched line ``(family
+    index, uv_A, uv_B)``; ``dirs``: the families' directions in A. A near-central rig hardly tells
+    the lengths apart: the search then ends at a bound of its range, and
+    :func:`refine_far_or_free` decides whether the pixels fix the scale."""
+    from ..linefit.distances import _closest_depths, _depth_refine
+
+    def few(uv):
+        return uv[np.unique(np.round(np.linspace(0, len(uv) - 1, min(n_pixels, len(uv)))).astype(int))]
+
+    sub = [(f, few(ua), few(ub)) for f, ua, ub in lines]
+    ra = [va.cam.backproject(u) for _, u, _ in sub]
+    rb = [vb.cam.backproject(u) for _, _, u in sub]
+    uv_a = np.concatenate([u for _, u, _ in sub])
+    uv_b = np.concatenate([u for _, _, u in sub])
+    cap = (3.0 * sigma) ** 2
+
+    def cost(alpha):
+        t = alpha * t_dir + offset
+        qa, sa, qb, sb = [], [], [], []
+        for (f, ua, ub), a, b in zip(sub, ra, rb):
+            s = dirs[f]
+            o = np.concatenate([a.origins[a.valid], (b.origins[b.valid] - t) @ R])
+            d = np.concatenate([a.directions[a.valid], b.directions[b.valid] @ R])
+            q, _ = triangulate_line(s, o, d)
+            qa.append(np.tile(q, (len(ua), 1)))
+            sa.append(np.tile(s, (len(ua), 1)))
+            qb.append(np.tile(R @ q + t, (len(ub), 1)))
+            sb.append(np.tile(R @ s, (len(ub), 1)))
+        total = 0.0
+        for cam, uv, q, s in ((va.cam, uv_a, np.concatenate(qa), np.concatenate(sa)),
+                              (vb.cam, uv_b, np.concatenate(qb), np.concatenate(sb))):
+            r = cam.backproject(uv)
+            lam0 = _closest_depths(q, s, np.nan_to_num(r.origins), np.nan_to_num(r.directions))
+            _, dist, _, _ = _depth_refine(cam, q, s, uv, lam0, iters=2)
+            total += float(np.sum(np.minimum(np.where(np.isfinite(dist), dist, np.inf) ** 2, cap)))
+        return total
+
+    logs = np.log(0.25) + np.log(2.0) * np.arange(9)
+    costs = np.array([cost(np.exp(x)) for x in logs])
+    k = int(np.argmin(costs))
+    if 0 < k < len(logs) - 1:
+        c0, c1, c2 = costs[k - 1:k + 2]
+        den = c0 - 2.0 * c1 + c2
+        if den > 0:
+            return float(np.exp(logs[k] + 0.5 * np.log(2.0) * (c0 - c2) / den))
+    return float(np.exp(logs[k]))
+
+
+def refine_far_or_free(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, owner_a, uv_b, owner_b, *,
+                       centres, far: float = FAR, tau: float = TAU, **kwargs) -> TwoViewFit:
+    """:func:`~catadioptric.pose.bundle.refine_two_view` with the scene held far unless the pixels
+    fix its scale.
+
+    Arguments as :func:`~catadioptric.pose.bundle.refine_two_view` (``centres``: ``(c_A, c_B)``,
+    required here; ``kwargs`` passed on, except ``hold_scale`` and ``release_scale``). Two fits:
+
+    * free: from ``t0`` and ``points0`` as given;
+    * far: the start scaled about the centres (the baseline between them ``far`` times the larger
+      mirror's size, every line with it; not shrunk when it is already longer) and the scale held
+      there. The rig then sees every line as from its central limit, and the fit has the
+      unknowns of the central approximation with the rig's exact rays.
+
+    The free fit is kept when its robust cost is lower than the far one's by more than ``tau``
+    (in units of the pixels' noise as the free fit estimates it, where that is below
+    ``sigma_cost``); otherwise the far fit, whose covariance still comes from the information with the scale free.
+    The returned fit records the choice (``scale_held``) and the difference of the two costs
+    (``far_gap``, far minus free). With exact pixels the far fit misses them by the rig's
+    non-centrality and the free fit is kept; on the benchmark's near-central rigs at 2 px the far
+    fit is kept in most draws (docs/relative_pose.md)."""
+    far = as_scalar(far, "far", positive=True)
+    tau = as_scalar(tau, "tau")
+    if tau < 0:
+        raise CatadioptricError(f"tau: expected a cost difference of at least 0, got {tau!r}")
+    for k in ("hold_scale", "release_scale"):
+        if k in kwargs:
+            raise TypeError(f"refine_far_or_free: {k} is set by the function itself, got {k}={kwargs[k]!r}")
+    R0 = np.asarray(R0, float)
+    ca, cb = (np.asarray(c, float) for c in centres)
+    args = (line_family, uv_a, owner_a, uv_b, owner_b)
+    free = refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, *args, centres=(ca, cb), **kwargs)
+    baseline = R0 @ ca + np.asarray(t0, float) - cb
+    length = float(np.linalg.norm(baseline))
+    size = max(cam_a.mirror.scale, cam_b.mirror.scale)
+    if length == 0.0:
+        return replace(free, scale_held=False, far_gap=float("inf"))
+    f = max(1.0, far * size / length)
+    t_far = f * baseline - R0 @ ca + cb
+    points_far = ca + f * (np.asarray(points0, float) - ca)
+    held = refine_two_view(cam_a, cam_b, R0, t_far, dirs0, points_far, *args, centres=(ca, cb),
+                           hold_scale=True, release_scale=0.0, **kwargs)
+    # the robust costs are in units of sigma_cost; where the pixels' noise (the free fit's estimate)
+    # is below it, as with exact pixels, the costs are nearly quadratic and the gap is put in units
+    # of that noise (the refinement's polish stops by the same rule)
+    noise = min(1.0, free.sigma / as_scalar(kwargs.get("sigma_cost", 1.0), "sigma_cost", positive=True))
+    gap = float(held.cost - free.cost) / max(noise, 1e-12) ** 2
+    if gap > tau:
+        return replace(free, scale_held=False, far_gap=gap)
+    return replace(held, scale_held=True, far_gap=gap)
