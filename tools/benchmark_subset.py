@@ -39,7 +39,7 @@ def _one(args):
                      "exact_t_dir_deg": d.get("translation_direction_error_deg"),
                      "central_t_dir_deg": c.get("translation_direction_error_deg"),
                      "exact_ambiguous": d.get("ambiguous"), "central_ambiguous": c.get("ambiguous"),
-                     "scale_held": d.get("scale_held"), "far_gap": d.get("far_gap"), "seconds": d.get("seconds")})
+                     "scale_held": d.get("scale_held"), "far_gap": d.get("far_gap"), "scale_std": d.get("scale_std"), "seconds": d.get("seconds")})
     return rows
 
 

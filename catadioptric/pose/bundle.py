@@ -46,10 +46,11 @@ class TwoViewFit:
     the inliers), ``cost``: the robust cost ``sum rho(|e_j|^2 / sigma_cost^2)`` of the robust
     stage (comparable between candidates refined with the same ``sigma_cost``),
     ``rms_px (2,)``: inlier rms per view, ``inliers_a``, ``inliers_b`` (masks over the pixels
-    given), ``n_pixels (2,)`` inliers per view, ``iterations``. Set by
-    :func:`~catadioptric.pose.scale.refine_far_or_free`: ``scale_held`` (the scene held far,
-    the pixels not fixing its scale) and ``far_gap`` (the far fit's robust cost minus the free
-    one's; nan when not compared)."""
+    given), ``n_pixels (2,)`` inliers per view, ``iterations``, ``line_family (L,)``: each line's
+    family. Set by :func:`~catadioptric.pose.scale.refine_far_or_free`: ``scale_held`` (the
+    rotation and the scene's shape from the fit with the scene held far, the pixels not fixing
+    its scale), ``far_gap`` (the far fit's robust cost minus the free one's) and ``scale_std``
+    (the free fit's relative deviation of the baseline's length); nan when not compared."""
 
     R: np.ndarray
     t: np.ndarray
@@ -63,8 +64,10 @@ class TwoViewFit:
     inliers_b: np.ndarray
     n_pixels: np.ndarray
     iterations: int
+    line_family: np.ndarray | None = None
     scale_held: bool = False
     far_gap: float = float("nan")
+    scale_std: float = float("nan")
 
 
 def _basis(s):
@@ -596,7 +599,8 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
                     for v in (0, 1)])
     return TwoViewFit(R=R, t=pb.translation(R, y), cov=cov, directions=s, points=q, sigma=sigma, cost=cost,
                       rms_px=rms, inliers_a=inl[view == 0], inliers_b=inl[view == 1],
-                      n_pixels=np.array([int(np.sum(inl & (view == v))) for v in (0, 1)]), iterations=it1 + it2)
+                      n_pixels=np.array([int(np.sum(inl & (view == v))) for v in (0, 1)]), iterations=it1 + it2,
+                      line_family=pb.fam.copy())
 
 
 def _information(pb, R, y, mu, inl, cmask, c2, pixel_sigma):

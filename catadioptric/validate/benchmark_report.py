@@ -59,6 +59,10 @@ def aggregate(spec: dict, results: list) -> dict:
                                  "rotation_deg": _q([r["rotation_error_deg"] for r in clear]),
                                  "frobenius": _q([r["frobenius_error"] for r in clear])}
             entry["paired"] = _paired(draws)
+            told = [d for d in draws if "scale_held" in d and "error" not in d]
+            entry["scale"] = {"draws": len(told), "held": sum(d["scale_held"] for d in told),
+                              "held_rotation_deg": _q([d["rotation_error_deg"] for d in told if d["scale_held"]]),
+                              "free_rotation_deg": _q([d["rotation_error_deg"] for d in told if not d["scale_held"]])}
             per_noise[str(noise)] = entry
         seen = [v for r in pairs for v in r.get("seen", {}).values()]
         out[name] = {
@@ -201,6 +205,14 @@ def benchmark_markdown(spec: dict, agg: dict, results: list, command: str, timin
           "of its rotation covariance), median [quartiles] over the draws. An estimator whose covariance is right "
           "gives about 0.89 (isotropic case); above that, its errors exceed what it claims.", "",
           md_table(["configuration", "model"] + [f"{x:g} px" for x in noisy], rows), ""]
+    rows = [[n] + [f"{a['noise'][str(x)]['scale']['held']}/{a['noise'][str(x)]['scale']['draws']}"
+                   for x in noises] for n, a in agg.items() if any(a["noise"][str(x)]["scale"]["draws"] for x in noises)]
+    if rows:
+        L += ["## The scale: held far, or told by the pixels", "",
+              "Per cell: in how many of the exact model's metric draws the pixels did not tell the scene's scale, "
+              "so that the rotation is that of the refinement with the scene held far (the rig's central limit) "
+              "and the baseline's length the free refinement's (`pose.refine_far_or_free`; docs/relative_pose.md).",
+              "", md_table(["configuration"] + [f"{x:g} px" for x in noises], rows), ""]
     two = [x for x in noises if abs(x - 2.0) < 1e-9]
     if two:
         rows = [[n, _fmt(a["noise"][str(two[0])]["exact"]["frobenius"]),

@@ -78,7 +78,7 @@ def _record(res, R_gt, t_gt, centre_a, centre_b, seconds) -> dict:
            "candidates_count": len(res.candidates), "seconds": seconds, "notes": res.notes}
     fit = res.candidates[0].fit if res.candidates else None
     if res.metric and hasattr(fit, "scale_held"):  # the refinement's scale: held far, or fixed by the pixels
-        out["scale_held"], out["far_gap"] = bool(fit.scale_held), float(fit.far_gap)
+        out["scale_held"], out["far_gap"], out["scale_std"] = bool(fit.scale_held), float(fit.far_gap), float(fit.scale_std)
     if res.t is not None:
         if res.metric:
             out["translation_error_m"] = float(np.linalg.norm(res.t - t_gt))
