@@ -520,12 +520,12 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
 
     ``hold_scale``: both stages hold the scene's scale (the baseline's length with every line's
     distance) where ``t0`` puts it, and free it after the polish only if the pixels fix it
-    (deviation of its logarithm below ``release_scale``). Not used by
-    :func:`~catadioptric.pose.relative_pose`: held at the right scale it helps (hyperboloid pairs
-    0-19 at 2 px, the scale held wherever the start put it, with the meetings: median rotation
-    error 0.143 degree against 0.291 free), but the start's scale search mostly ends at a bound
-    of its range there (0.25 or 64 m), and held at the wrong scale the rotation is biased (the
-    box scene of tests/test_relative_pose.py at 1 px: 1.24 degree held at 64 m, 0.07 free).
+    (deviation of its logarithm below ``release_scale``). :func:`~catadioptric.pose.relative_pose`
+    holds it through :func:`~catadioptric.pose.scale.refine_far_or_free`, with the scene moved
+    far away and ``release_scale=0``, and compares that fit with the free one. Held where the
+    start's scale search put it (mostly a bound of its range, 0.25 or 64 m) it gave the
+    hyperbolic pairs 0-19 at 2 px 0.143 degree (0.291 free), but on the box scene of
+    tests/test_relative_pose.py at 1 px, held at 64 m, 1.24 degree (0.07 free).
     """
     uv_a = np.asarray(uv_a, float).reshape(-1, 2)
     uv_b = np.asarray(uv_b, float).reshape(-1, 2)

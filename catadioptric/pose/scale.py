@@ -6,7 +6,7 @@ to centimetres against lines metres away), so scaling the whole scene (the basel
 together) changes the pixels little: for a rig near the central configuration, by less than their
 noise. The refinement's cost is then flat along the scale, with shallow minima in the lines'
 distances, and where the free refinement stops along that valley moves the rotation by tenths of a
-degree (docs/relative_pose.md, "The scale: far unless the pixels fix it").
+degree (docs/relative_pose.md, "The scale: far unless the pixels tell it").
 
 * :func:`scale_by_search`: the starting length of the translation, from the matched lines'
   pixels.
