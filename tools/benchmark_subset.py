@@ -48,6 +48,26 @@ def _median(rows, key):
     return float(np.median(x)) if len(x) else float("nan")
 
 
+def run_rows(ap, args, names, noise, one) -> list:
+    """``one`` over the first ``args.pairs`` pairs of each configuration in ``names`` (checked
+    against ``args.spec``), at the noise levels ``noise``, on ``args.workers`` spawned processes:
+    the rows, sorted by configuration, noise and pair, written to ``args.json`` when given."""
+    spec = load_benchmark_spec(args.spec)
+    known = [c["name"] for c in spec["configs"]]
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        ap.error(f"configs: expected names among {known}, got {unknown}")
+    tasks = [(args.data, spec, c["name"], p, noise) for c in spec["configs"] if c["name"] in names
+             for p in pairs_of(spec, c)[:args.pairs]]
+    with get_context("spawn").Pool(args.workers) as pool:
+        rows = [r for rr in pool.imap_unordered(one, tasks) for r in rr]
+    rows.sort(key=lambda r: (r["config"], r["noise_px"], r["pair"]))
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(rows, f, indent=1)
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("configs", help="comma-separated configuration names of the spec")
@@ -58,21 +78,9 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--json", help="write every draw's errors here")
     args = ap.parse_args()
-    spec = load_benchmark_spec(args.spec)
     names = args.configs.split(",")
-    known = [c["name"] for c in spec["configs"]]
-    unknown = [n for n in names if n not in known]
-    if unknown:
-        ap.error(f"configs: expected names among {known}, got {unknown}")
     noise = [float(x) for x in args.noise.split(",")]
-    tasks = [(args.data, spec, c["name"], p, noise) for c in spec["configs"] if c["name"] in names
-             for p in pairs_of(spec, c)[:args.pairs]]
-    with get_context("spawn").Pool(args.workers) as pool:
-        rows = [r for rr in pool.imap_unordered(_one, tasks) for r in rr]
-    rows.sort(key=lambda r: (r["config"], r["noise_px"], r["pair"]))
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(rows, f, indent=1)
+    rows = run_rows(ap, args, names, noise, _one)
     print("config | noise px | draws | exact rotation | central rotation | exact better | "
           "exact t direction | central t direction (medians, degrees)")
     for name in names:

@@ -9,7 +9,8 @@ away) and of the central baseline, the far fit's robust cost minus the free one'
 chi-square units) and the free fit's relative deviation of its baseline length. Then the median
 rotation error per configuration and noise level of each rule: always free (the code before
 ``refine_far_or_free``), always far, the gap rule that ``refine_far_or_free`` applies (free when
-``gap > TAU``), the gap rule with the free length also known to 5 %, and the better of the two
+``gap > TAU``), the gap rule with the free length also known to 5 %, the gap rule with the free
+fit's pixel noise estimate (``TwoViewFit.sigma``, over its inliers) also below the far fit's, and the better of the two
 by the truth (an oracle, to show what a perfect choice would give). The pairs, seeds and pixels
 are the benchmark's (``tools/benchmark_subset.py``); it needs the benchmark's rendered datasets.
 With ``--from-json`` the table is printed from an earlier run's rows.
@@ -19,16 +20,14 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from multiprocessing import get_context
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from benchmark_subset import _median  # noqa: E402
+from benchmark_subset import _median, run_rows  # noqa: E402
 
 from catadioptric.validate.benchmark import dataset_folder  # noqa: E402
-from catadioptric.validate.benchmark_spec import load_benchmark_spec, pairs_of  # noqa: E402
 
 
 def _both(cam_a, cam_b, R0, t0, dirs0, points0, *args, centres, **kw):
@@ -47,6 +46,7 @@ def _both(cam_a, cam_b, R0, t0, dirs0, points0, *args, centres, **kw):
     _, _, std = scale._baseline(free, ca, cb)
     out = replace(held, scale_held=True, far_gap=(held.cost - free.cost) / max(noise, 1e-12) ** 2, scale_std=std)
     out.both = (free.R, held.R)
+    out.sigmas = (free.sigma, held.sigma)
     return out
 
 
@@ -62,6 +62,7 @@ def _one(args):
         fit = res.candidates[0].fit if res.candidates else None
         if hasattr(fit, "both"):
             out["free_deg"], out["far_deg"] = (vrp._rotation_error_deg(R, R_gt) for R in fit.both)
+            out["free_sigma"], out["far_sigma"] = fit.sigmas
         return out
 
     vrp._record = rec
@@ -71,7 +72,8 @@ def _one(args):
                           max_pixels=spec["max_pixels"])
     return [{"config": config, "pair": pair.index, "noise_px": d["noise_px"], "free_deg": d.get("free_deg"),
              "far_deg": d.get("far_deg"), "central_deg": d.get("central", {}).get("rotation_error_deg"),
-             "gap": d.get("far_gap"), "scale_std": d.get("scale_std")} for d in r["draws"]]
+             "gap": d.get("far_gap"), "scale_std": d.get("scale_std"), "free_sigma": d.get("free_sigma"),
+             "far_sigma": d.get("far_sigma")} for d in r["draws"]]
 
 
 RULES = {
@@ -79,6 +81,8 @@ RULES = {
     "always far": lambda r: r["far_deg"],
     "gap > TAU (refine_far_or_free)": lambda r: r["free_deg"] if r["gap"] > 6.63 else r["far_deg"],
     "gap > TAU and length to 5 %": lambda r: r["free_deg"] if r["gap"] > 6.63 and r["scale_std"] < 0.05 else r["far_deg"],
+    "gap > TAU and the free fit's noise estimate the lower": lambda r: (
+        r["free_deg"] if r["gap"] > 6.63 and (r.get("free_sigma") or 0.0) < (r.get("far_sigma") or 0.0) else r["far_deg"]),
     "oracle (the better by the truth)": lambda r: min(r["free_deg"], r["far_deg"]),
     "central baseline": lambda r: r["central_deg"],
 }
@@ -100,17 +104,7 @@ def main() -> None:
     if args.from_json:
         rows = json.loads(Path(args.from_json).read_text())
     else:
-        spec = load_benchmark_spec(args.spec)
-        known = [c["name"] for c in spec["configs"]]
-        if [n for n in names if n not in known]:
-            ap.error(f"configs: expected names among {known}, got {[n for n in names if n not in known]}")
-        tasks = [(args.data, spec, c["name"], p, noise) for c in spec["configs"] if c["name"] in names
-                 for p in pairs_of(spec, c)[:args.pairs]]
-        with get_context("spawn").Pool(args.workers) as pool:
-            rows = [r for rr in pool.imap_unordered(_one, tasks) for r in rr]
-        rows.sort(key=lambda r: (r["config"], r["noise_px"], r["pair"]))
-        if args.json:
-            Path(args.json).write_text(json.dumps(rows, indent=1))
+        rows = run_rows(ap, args, names, noise, _one)
     cells = [(n, z) for n in names for z in noise]
     print("rule | " + " | ".join(f"{n} {z:g} px" for n, z in cells) + "  (median rotation error, degrees)")
     for rule, f in RULES.items():
