@@ -76,7 +76,7 @@ def test_lines_stay_outside_the_mirror():
     """A line's distance from c_A never falls below twice the mirror's size, at the start or after
     any step: a line started (or pushed) inside the mirror would have points that reflect nowhere
     and pixels without a gradient."""
-    from catadioptric.pose.bundle import _Problem
+    from catadioptric.pose.two_view_problem import _Problem
     from catadioptric.rigs import preset
 
     cam = preset("hyperboloid")
@@ -102,7 +102,7 @@ def test_lines_stay_outside_the_mirror():
 def _line_at_the_mirror():
     """A problem with line 0 on its bound (1 cm from c_A, held at twice the mirror's size) and
     line 1 free (4 m away)."""
-    from catadioptric.pose.bundle import _Problem
+    from catadioptric.pose.two_view_problem import _Problem
     from catadioptric.rigs import preset
 
     cam = preset("hyperboloid")
@@ -156,7 +156,8 @@ def test_a_step_against_a_bound_is_the_step_on_the_bound():
 def test_a_depth_at_its_limit_is_held():
     """A pixel whose depth is at +-_MU_MAX (its point at a vanishing point) and whose step would
     take it further keeps its depth; the step is that of the system without its depth."""
-    from catadioptric.pose.bundle import _MU_MAX, _normal_equations, _solve_step
+    from catadioptric.pose.bundle import _normal_equations, _solve_step
+    from catadioptric.pose.two_view_problem import _MU_MAX
 
     pb = _line_at_the_mirror()
     y = pb.start()
@@ -190,7 +191,8 @@ def test_a_trial_is_judged_at_its_depths_re_solved():
     the residuals are taken. Exact pixels of a line at its true place, every depth pushed along the
     line: without the step the residuals stay (pixels along the curve); with it what is left is
     the step's second-order error, a quarter as large when the push is halved."""
-    from catadioptric.pose.bundle import _Problem, _trial
+    from catadioptric.pose.bundle import _trial
+    from catadioptric.pose.two_view_problem import _Problem
     from catadioptric.rigs import preset
 
     cam = preset("hyperboloid")
@@ -224,7 +226,7 @@ def test_a_trial_is_judged_at_its_depths_re_solved():
 
 def test_the_depth_column_is_the_jacobians():
     """``_Problem.depth_column`` is the depth column of ``_Problem.jacobian``, in both views."""
-    from catadioptric.pose.bundle import _Problem
+    from catadioptric.pose.two_view_problem import _Problem
     from catadioptric.pose.rotation import exp_rotation
     from catadioptric.rigs import preset
 

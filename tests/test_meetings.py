@@ -4,7 +4,7 @@ Jacobian agrees with finite differences of the residual itself."""
 import numpy as np
 import pytest
 
-from catadioptric.pose.bundle import _Problem
+from catadioptric.pose.two_view_problem import _Problem
 from catadioptric.pose.meetings import _transversal_residual
 from catadioptric.pose.rotation import exp_rotation
 from catadioptric.rigspec import load_rig

@@ -29,7 +29,7 @@ def _one(args):
     from catadioptric.validate.relative_pose import evaluate_pair
 
     r = evaluate_pair(dataset_folder(data, config, pair.renderer), pair.names, noise_levels=noise, draws=1,
-                      seed=[spec["seed"], pair.index], pixels=spec["pixels"], min_pixels=spec["min_pixels"],
+                      seed=seed_of(spec, pair), pixels=spec["pixels"], min_pixels=spec["min_pixels"],
                       max_pixels=spec["max_pixels"])
     rows = []
     for d in r["draws"]:
@@ -43,6 +43,12 @@ def _one(args):
     return rows
 
 
+def seed_of(spec, pair) -> list:
+    """The noise seed of a pair's draws: the benchmark's (``[spec seed, pair index]``), or with
+    ``--reseed K`` (stored as ``spec["reseed"]``) other draws of the same pairs and pixels."""
+    return [spec["seed"], pair.index] + ([spec["reseed"]] if spec.get("reseed") is not None else [])
+
+
 def _median(rows, key):
     x = np.array([r[key] for r in rows if r[key] is not None], float)
     return float(np.median(x)) if len(x) else float("nan")
@@ -53,6 +59,7 @@ def run_rows(ap, args, names, noise, one) -> list:
     against ``args.spec``), at the noise levels ``noise``, on ``args.workers`` spawned processes:
     the rows, sorted by configuration, noise and pair, written to ``args.json`` when given."""
     spec = load_benchmark_spec(args.spec)
+    spec["reseed"] = getattr(args, "reseed", None)
     known = [c["name"] for c in spec["configs"]]
     unknown = [n for n in names if n not in known]
     if unknown:
@@ -77,6 +84,7 @@ def main() -> None:
     ap.add_argument("--data", default="render/out/relative_pose_benchmark")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--json", help="write every draw's errors here")
+    ap.add_argument("--reseed", type=int, help="other noise draws than the benchmark's (seed [spec seed, pair, K])")
     args = ap.parse_args()
     names = args.configs.split(",")
     noise = [float(x) for x in args.noise.split(",")]

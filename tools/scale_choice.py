@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from benchmark_subset import _median, run_rows  # noqa: E402
+from benchmark_subset import _median, run_rows, seed_of  # noqa: E402
 
 from catadioptric.validate.benchmark import dataset_folder  # noqa: E402
 
@@ -68,7 +68,7 @@ def _one(args):
     vrp._record = rec
     data, spec, config, pair, noise = args
     r = vrp.evaluate_pair(dataset_folder(data, config, pair.renderer), pair.names, noise_levels=noise, draws=1,
-                          seed=[spec["seed"], pair.index], pixels=spec["pixels"], min_pixels=spec["min_pixels"],
+                          seed=seed_of(spec, pair), pixels=spec["pixels"], min_pixels=spec["min_pixels"],
                           max_pixels=spec["max_pixels"])
     return [{"config": config, "pair": pair.index, "noise_px": d["noise_px"], "free_deg": d.get("free_deg"),
              "far_deg": d.get("far_deg"), "central_deg": d.get("central", {}).get("rotation_error_deg"),
@@ -98,6 +98,7 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--json", help="write every draw's row here")
     ap.add_argument("--from-json", help="print the table from these rows instead of running")
+    ap.add_argument("--reseed", type=int, help="other noise draws than the benchmark's (seed [spec seed, pair, K])")
     args = ap.parse_args()
     names = args.configs.split(",")
     noise = [float(x) for x in args.noise.split(",")]
