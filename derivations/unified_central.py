@@ -1,4 +1,4 @@
-"""Derive and check the unified-model formulas of catadioptric/unified.py with sympy.
+"""Derive and check the unified-model formulas of catadioptric/unified/ with sympy.
 
 Run: ``.venv/bin/python derivations/unified_central.py`` (prints each identity, exits 1 on failure).
 
