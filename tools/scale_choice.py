@@ -2,18 +2,21 @@
 free (``pose.refine_far_or_free``), and what each way of choosing between them would give (issue 8:
 the exact model's rotation on near-central rigs).
 
-    .venv/bin/python tools/scale_choice.py ellipsoid,hyperboloid,hyperboloid_9pct,sphere --pairs 20 --noise 1,2,3 --json OUT
+    .venv/bin/python tools/scale_choice.py ellipsoid,hyperboloid,hyperboloid_9pct,sphere --pairs 20 --noise 1,2,3 [--reseed K] --json OUT
 
 Per draw: the rotation error of the free fit, of the far fit (the scene held 1e4 mirror sizes
-away) and of the central baseline, the far fit's robust cost minus the free one's (``gap``,
-chi-square units) and the free fit's relative deviation of its baseline length. Then the median
-rotation error per configuration and noise level of each rule: always free (the code before
-``refine_far_or_free``), always far, the gap rule that ``refine_far_or_free`` applies (free when
-``gap > TAU``), the gap rule with the free length also known to 5 %, the gap rule with the free
-fit's pixel noise estimate (``TwoViewFit.sigma``, over its inliers) also below the far fit's, and the better of the two
-by the truth (an oracle, to show what a perfect choice would give). The pairs, seeds and pixels
-are the benchmark's (``tools/benchmark_subset.py``); it needs the benchmark's rendered datasets.
-With ``--from-json`` the table is printed from an earlier run's rows.
+away) and of the central baseline; the far fit's robust-stage cost minus the free one's (``gap``,
+chi-square units, the rule of commit 9495095); the same on common ground (``common_gap``:
+both fits scored on every pixel with one truncated loss, ``pose.scale.common_gap``, the rule
+``refine_far_or_free`` applies); the free fit's relative deviation of its baseline length and
+both fits' pixel noise estimates. Then the median rotation error per configuration and noise
+level of each rule: always free (the code before ``refine_far_or_free``), always far, the
+robust-stage gap, that gap with the free length also known to 5 %, that gap with the free fit's
+noise estimate also below the far fit's, the common-ground gap, and the better of the two by the
+truth (an oracle, to show what a perfect choice would give). The pairs, seeds and pixels are the
+benchmark's (``tools/benchmark_subset.py``; ``--reseed K``: other noise draws of the same pairs);
+it needs the benchmark's rendered datasets. With ``--from-json`` the table is printed from an
+earlier run's rows.
 """
 from __future__ import annotations
 
@@ -30,23 +33,21 @@ from benchmark_subset import _median, run_rows, seed_of  # noqa: E402
 from catadioptric.validate.benchmark import dataset_folder  # noqa: E402
 
 
-def _both(cam_a, cam_b, R0, t0, dirs0, points0, *args, centres, **kw):
+def _both(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, owner_a, uv_b, owner_b, *, centres, **kw):
     """refine_far_or_free's two fits; the far one returned, both kept on it for the record."""
     from dataclasses import replace
 
     from catadioptric.pose import scale
 
+    pix = (uv_a, owner_a, uv_b, owner_b)
+    free, held = scale.far_and_free_fits(cam_a, cam_b, R0, t0, dirs0, points0, line_family, *pix, centres=centres, **kw)
     ca, cb = (np.asarray(c, float) for c in centres)
-    free = scale.refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, *args, centres=(ca, cb), **kw)
-    base = R0 @ ca + np.asarray(t0, float) - cb
-    f = max(1.0, scale.FAR * max(cam_a.mirror.scale, cam_b.mirror.scale) / np.linalg.norm(base))
-    held = scale.refine_two_view(cam_a, cam_b, R0, f * base - R0 @ ca + cb, dirs0, ca + f * (np.asarray(points0) - ca),
-                                 *args, centres=(ca, cb), hold_scale=True, release_scale=0.0, **kw)
     noise = min(1.0, free.sigma / kw.get("sigma_cost", 1.0))
     _, _, std = scale._baseline(free, ca, cb)
     out = replace(held, scale_held=True, far_gap=(held.cost - free.cost) / max(noise, 1e-12) ** 2, scale_std=std)
     out.both = (free.R, held.R)
     out.sigmas = (free.sigma, held.sigma)
+    out.common_gap = scale.common_gap(free, held, cam_a, cam_b, *pix, sigma=kw.get("pixel_sigma"))
     return out
 
 
@@ -63,6 +64,7 @@ def _one(args):
         if hasattr(fit, "both"):
             out["free_deg"], out["far_deg"] = (vrp._rotation_error_deg(R, R_gt) for R in fit.both)
             out["free_sigma"], out["far_sigma"] = fit.sigmas
+            out["common_gap"] = fit.common_gap
         return out
 
     vrp._record = rec
@@ -73,16 +75,18 @@ def _one(args):
     return [{"config": config, "pair": pair.index, "noise_px": d["noise_px"], "free_deg": d.get("free_deg"),
              "far_deg": d.get("far_deg"), "central_deg": d.get("central", {}).get("rotation_error_deg"),
              "gap": d.get("far_gap"), "scale_std": d.get("scale_std"), "free_sigma": d.get("free_sigma"),
-             "far_sigma": d.get("far_sigma")} for d in r["draws"]]
+             "far_sigma": d.get("far_sigma"), "common_gap": d.get("common_gap")} for d in r["draws"]]
 
 
 RULES = {
     "always free": lambda r: r["free_deg"],
     "always far": lambda r: r["far_deg"],
-    "gap > TAU (refine_far_or_free)": lambda r: r["free_deg"] if r["gap"] > 6.63 else r["far_deg"],
+    "robust-stage gap > TAU (commit 9495095)": lambda r: r["free_deg"] if r["gap"] > 6.63 else r["far_deg"],
     "gap > TAU and length to 5 %": lambda r: r["free_deg"] if r["gap"] > 6.63 and r["scale_std"] < 0.05 else r["far_deg"],
     "gap > TAU and the free fit's noise estimate the lower": lambda r: (
         r["free_deg"] if r["gap"] > 6.63 and (r.get("free_sigma") or 0.0) < (r.get("far_sigma") or 0.0) else r["far_deg"]),
+    "common-ground gap > TAU (refine_far_or_free)": lambda r: (
+        r["free_deg"] if (r.get("common_gap") if r.get("common_gap") is not None else -1.0) > 6.63 else r["far_deg"]),
     "oracle (the better by the truth)": lambda r: min(r["free_deg"], r["far_deg"]),
     "central baseline": lambda r: r["central_deg"],
 }

@@ -37,8 +37,9 @@ class TwoViewFit:
     given), ``n_pixels (2,)`` inliers per view, ``iterations``, ``line_family (L,)``: each line's
     family. Set by :func:`~catadioptric.pose.scale.refine_far_or_free`: ``scale_held`` (the
     rotation and the scene's shape from the fit with the scene held far, the pixels not fixing
-    its scale), ``far_gap`` (the far fit's robust cost minus the free one's) and ``scale_std``
-    (the free fit's relative deviation of the baseline's length); nan when not compared."""
+    its scale), ``far_gap`` (the far fit's cost on every pixel minus the free one's,
+    :func:`~catadioptric.pose.scale.common_gap`) and ``scale_std`` (the free fit's relative
+    deviation of the baseline's length); nan when not compared."""
 
     R: np.ndarray
     t: np.ndarray

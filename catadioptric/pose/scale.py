@@ -12,10 +12,11 @@ degree (docs/relative_pose.md, "The scale: far unless the pixels tell it").
   pixels.
 * :func:`refine_far_or_free`: the refinement twice, with the scene held far away (near the
   central limit of the rig: the baseline ``far`` mirror sizes long and every line with it) and
-  with the scale free; the free fit is the answer only where the pixels tell the scale (its cost
-  lower by more than ``tau``, a likelihood ratio with one degree of freedom); otherwise the far
-  fit, scaled to the free fit's length. The answer says
-  which (:attr:`~catadioptric.pose.bundle.TwoViewFit.scale_held`).
+  with the scale free (:func:`far_and_free_fits`); the free fit is the answer only where the
+  pixels tell the scale (:func:`common_gap`: both fits scored on every pixel with one loss, the
+  free one better by more than ``tau``, a likelihood ratio with one degree of freedom);
+  otherwise the far fit, scaled to the free fit's length. The answer says which
+  (:attr:`~catadioptric.pose.bundle.TwoViewFit.scale_held`).
 """
 from __future__ import annotations
 
@@ -27,7 +28,7 @@ from .._checks import CatadioptricError, as_scalar
 from .bundle import TwoViewFit, refine_two_view
 from .translation import triangulate_line
 
-__all__ = ["FAR", "TAU", "scale_by_search", "refine_far_or_free"]
+__all__ = ["FAR", "TAU", "scale_by_search", "refine_far_or_free", "far_and_free_fits", "common_gap", "pixel_distances"]
 
 FAR = 1e4  # the held baseline, in mirror sizes (QuadricMirror.scale): 500-750 m for the presets' mirrors
 TAU = 6.63  # chi-square of one degree of freedom at 99 %: what the free scale must gain to be kept
@@ -91,6 +92,8 @@ def _baseline(fit, ca, cb):
     that length (from the fit's translation covariance)."""
     b = fit.R @ ca + fit.t - cb
     k = float(np.linalg.norm(b))
+    if k == 0.0:
+        return b, k, float("inf")
     u = b / k
     return b, k, float(np.sqrt(max(u @ fit.cov[3:, 3:] @ u, 0.0)) / k)
 
@@ -124,7 +127,8 @@ def refine_far_or_free(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, 
     fix its scale.
 
     Arguments as :func:`~catadioptric.pose.bundle.refine_two_view` (``centres``: ``(c_A, c_B)``,
-    required here; ``kwargs`` passed on, except ``hold_scale`` and ``release_scale``). Two fits:
+    required here; ``kwargs`` passed on, except ``hold_scale`` and ``release_scale``). Two fits
+    (:func:`far_and_free_fits`):
 
     * free: from ``t0`` and ``points0`` as given;
     * far: the start scaled about the centres (the baseline between them ``far`` times the larger
@@ -132,19 +136,20 @@ def refine_far_or_free(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, 
       there. The rig then sees every line nearly as from its central limit: the fit has the
       unknowns of the central approximation, with the rig's exact rays.
 
-    The pixels tell the scale when the free fit's robust cost is lower than the far one's by more
-    than ``tau`` (chi-square units; in units of the pixels' noise as the free fit estimates it
-    where that is below ``sigma_cost``): the free fit is then the answer. Otherwise the answer is the far
-    fit scaled to the free fit's length: its rotation, family directions and the scene's shape,
-    the free fit's size, whose deviation (in the covariance, along the baseline) says how poorly
-    the pixels know it. The fit records the choice (``scale_held``), the cost difference
-    (``far_gap``, far minus free) and the free fit's relative deviation (``scale_std``).
+    The pixels tell the scale when the free fit explains them better than the far one by more than
+    ``tau`` on common ground (:func:`common_gap`: every pixel given, one truncated quadratic loss,
+    the pixels' noise as the free fit estimates it, or ``pixel_sigma``): the free fit is then the
+    answer. Otherwise the answer is the far fit scaled to the free fit's length: its rotation,
+    family directions and the scene's shape, the free fit's size, whose deviation (in the
+    covariance, along the baseline) says how poorly the pixels know it. The fit records the choice
+    (``scale_held``), the gap (``far_gap``, far minus free) and the free fit's relative deviation
+    of its baseline's length (``scale_std``).
 
     With exact pixels the far fit misses them by the rig's non-centrality and the free fit is
-    kept. Both fits can stop in local minima of a cost that is nearly flat along the scale, so the
-    gap is a likelihood ratio between two minima rather than a nested test; measured on the
-    benchmark, the choice beats either fit alone on some rigs and not on others
-    (docs/relative_pose.md, "The scale: far unless the pixels tell it")."""
+    kept. With noisy pixels both fits can stop in different local minima of a cost that is nearly
+    flat along the scale: the gap is then a likelihood ratio between two minima rather than a
+    nested test, and the free fit it keeps is not always the better rotation (docs/relative_pose.md,
+    "The scale: far unless the pixels tell it", has the figures)."""
     far = as_scalar(far, "far", positive=True)
     tau = as_scalar(tau, "tau")
     if tau < 0:
@@ -152,24 +157,67 @@ def refine_far_or_free(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, 
     for k in ("hold_scale", "release_scale"):
         if k in kwargs:
             raise TypeError(f"refine_far_or_free: {k} is set by the function itself, got {k}={kwargs[k]!r}")
-    sigma_cost = as_scalar(kwargs.get("sigma_cost", 1.0), "sigma_cost", positive=True)
+    free, held = far_and_free_fits(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, owner_a, uv_b, owner_b,
+                                   centres=centres, far=far, **kwargs)
+    ca, cb = (np.asarray(c, float) for c in centres)
+    _, _, std = _baseline(free, ca, cb)
+    if held is None:
+        return replace(free, scale_held=False, far_gap=float("inf"), scale_std=std)
+    gap = common_gap(free, held, cam_a, cam_b, uv_a, owner_a, uv_b, owner_b,
+                     cap=kwargs.get("inlier_sigmas", 3.5), sigma=kwargs.get("pixel_sigma"))
+    if gap > tau:
+        return replace(free, scale_held=False, far_gap=gap, scale_std=std)
+    return replace(_held_at_length(held, free, ca, cb), scale_held=True, far_gap=gap, scale_std=std)
+
+
+def far_and_free_fits(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, owner_a, uv_b, owner_b, *, centres,
+                      far: float = FAR, **kwargs) -> tuple[TwoViewFit, TwoViewFit | None]:
+    """The two refinements :func:`refine_far_or_free` chooses between, ``(free, far)``: free from
+    the start given; far from the start scaled about the centres until the baseline is ``far``
+    times the larger mirror's size (not shrunk when already longer), every line with it, and the
+    scale held there. ``far`` is None when the start or the free fit has no baseline to scale."""
     R0 = np.asarray(R0, float)
     ca, cb = (np.asarray(c, float) for c in centres)
     args = (line_family, uv_a, owner_a, uv_b, owner_b)
     free = refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, *args, centres=(ca, cb), **kwargs)
     baseline = R0 @ ca + np.asarray(t0, float) - cb
     length = float(np.linalg.norm(baseline))
-    _, k_free, std = _baseline(free, ca, cb)
-    if length == 0.0 or k_free == 0.0:
-        return replace(free, scale_held=False, far_gap=float("inf"), scale_std=std)
+    if length == 0.0 or float(np.linalg.norm(free.R @ ca + free.t - cb)) == 0.0:
+        return free, None
     f = max(1.0, far * max(cam_a.mirror.scale, cam_b.mirror.scale) / length)
     held = refine_two_view(cam_a, cam_b, R0, f * baseline - R0 @ ca + cb, dirs0, ca + f * (np.asarray(points0, float) - ca),
                            *args, centres=(ca, cb), hold_scale=True, release_scale=0.0, **kwargs)
-    # the robust costs are in units of sigma_cost; where the pixels' noise (the free fit's estimate)
-    # is below it, as with exact pixels, the costs are nearly quadratic and the gap is put in units
-    # of that noise (the refinement's polish stops by the same rule)
-    noise = min(1.0, free.sigma / sigma_cost)
-    gap = float(held.cost - free.cost) / max(noise, 1e-12) ** 2
-    if gap > tau:
-        return replace(free, scale_held=False, far_gap=gap, scale_std=std)
-    return replace(_held_at_length(held, free, ca, cb), scale_held=True, far_gap=gap, scale_std=std)
+    return free, held
+
+
+def pixel_distances(fit: TwoViewFit, cam_a, cam_b, uv_a, owner_a, uv_b, owner_b) -> np.ndarray:
+    """Every pixel's distance to the image of its line in a two-view fit, ``(M_A + M_B,)`` (A's
+    pixels, then B's; inf where the line has no image near the pixel)."""
+    from ..linefit.distances import _closest_depths, _depth_refine
+
+    s = fit.directions[fit.line_family]
+    out = []
+    for cam, uv, own, R, t in ((cam_a, uv_a, owner_a, np.eye(3), np.zeros(3)), (cam_b, uv_b, owner_b, fit.R, fit.t)):
+        uv = np.asarray(uv, float).reshape(-1, 2)
+        own = np.asarray(own, int).reshape(-1)
+        q, d = fit.points[own] @ R.T + t, s[own] @ R.T
+        r = cam.backproject(uv)
+        lam0 = _closest_depths(q, d, np.nan_to_num(r.origins), np.nan_to_num(r.directions))
+        _, dist, _, _ = _depth_refine(cam, q, d, uv, lam0, iters=5)
+        out.append(np.where(r.valid & np.isfinite(dist), dist, np.inf))
+    return np.concatenate(out)
+
+
+def common_gap(free: TwoViewFit, held: TwoViewFit, cam_a, cam_b, uv_a, owner_a, uv_b, owner_b, *, cap: float = 3.5,
+               sigma: float | None = None) -> float:
+    """How much better the free fit explains the pixels than the far one, on common ground: over
+    every pixel given, ``sum min((d / sigma)^2, cap^2)`` of the far fit minus that of the free fit
+    (chi-square units, a truncated quadratic as in MSAC), ``sigma`` the pixels' noise (given, or
+    the free fit's estimate). Both fits are scored on the same pixels with the same loss, whichever
+    pixels each kept as its inliers."""
+    sig = float(sigma) if sigma is not None else float(free.sigma)
+    if not np.isfinite(sig) or sig <= 0:
+        sig = float(held.sigma) if np.isfinite(held.sigma) and held.sigma > 0 else 1.0
+    cost = [float(np.sum(np.minimum((pixel_distances(f, cam_a, cam_b, uv_a, owner_a, uv_b, owner_b) / sig) ** 2,
+                                    cap ** 2))) for f in (free, held)]
+    return cost[1] - cost[0]
