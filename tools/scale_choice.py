@@ -103,6 +103,9 @@ def main() -> None:
     ap.add_argument("--json", help="write every draw's row here")
     ap.add_argument("--from-json", help="print the table from these rows instead of running")
     ap.add_argument("--reseed", type=int, help="other noise draws than the benchmark's (seed [spec seed, pair, K])")
+    ap.add_argument("--pool", metavar="REPORT_JSON",
+                    help="also pool these rows (the common-ground rule) with the draws of a benchmark report "
+                         "(exact and central) and print medians and Wilcoxon p-values over both")
     args = ap.parse_args()
     names = args.configs.split(",")
     noise = [float(x) for x in args.noise.split(",")]
@@ -125,6 +128,26 @@ def main() -> None:
         picked = [r for r in known if r["config"] == n and r["gap"] > 6.63]
         print(f"{n}: the gap rule picks the free fit in {len(picked)} draws from 1 px; its rotation is the better "
               f"in {sum(r['free_deg'] < r['far_deg'] for r in picked)}")
+    if args.pool:
+        _pooled(rows, json.loads(Path(args.pool).read_text()), cells)
+
+
+def _pooled(rows, report, cells):
+    """Per cell, the benchmark report's draws (exact, central) and these rows under the common-ground
+    rule together: medians, draws where the exact model is the better, Wilcoxon signed-rank p."""
+    from scipy.stats import wilcoxon
+
+    rule = RULES["common-ground gap > TAU (refine_far_or_free)"]
+    print("pooled with the report's draws | draws | exact | central | exact better | p  (rotation, degrees)")
+    for n, z in cells:
+        pairs = [(d["rotation_error_deg"], d["central"]["rotation_error_deg"]) for p in report["pairs"]
+                 if p["config"] == n for d in p["draws"] if d["noise_px"] == z and "rotation_error_deg" in d
+                 and "rotation_error_deg" in d.get("central", {})]
+        pairs += [(rule(r), r["central_deg"]) for r in rows if r["config"] == n and r["noise_px"] == z
+                  and r["free_deg"] is not None and r["central_deg"] is not None]
+        e, c = (np.array(x, float) for x in zip(*pairs)) if pairs else (np.zeros(0), np.zeros(0))
+        p = wilcoxon(e, c).pvalue if len(e) and np.any(e != c) else float("nan")
+        print(f"{n} {z:g} px | {len(e)} | {np.median(e):.3f} | {np.median(c):.3f} | {int(np.sum(e < c))} | {p:.2g}")
 
 
 if __name__ == "__main__":
