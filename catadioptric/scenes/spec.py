@@ -15,7 +15,8 @@ import numpy as np
 from .._checks import CatadioptricError
 from ..frames import RigPose
 from .._data import data_names, data_path
-from ..rigspec import REQUIRED, SpecTable, read_rig_spec, read_spec_file
+from ..rigspec import read_rig_spec
+from ..spectable import REQUIRED, SpecTable, read_spec_file
 
 __all__ = ["GENERATORS", "SPEC_DIR", "spec_path", "spec_names", "read_scene_spec", "load_spec", "as_spec", "views", "scene_rig", "view_rotation",
            "sun_direction"]

@@ -15,7 +15,7 @@ import numpy as np
 
 from .._checks import CatadioptricError
 from ..frames import RigPose
-from ..rigspec import SpecTable
+from ..spectable import SpecTable
 
 __all__ = ["read_benchmark_spec", "load_benchmark_spec", "quick_spec", "Pair", "pairs_of", "RENDERERS",
            "PIXEL_MODES"]
