@@ -175,7 +175,8 @@ def far_and_free_fits(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, o
     """The two refinements :func:`refine_far_or_free` chooses between, ``(free, far)``: free from
     the start given; far from the start scaled about the centres until the baseline is ``far``
     times the larger mirror's size (not shrunk when already longer), every line with it, and the
-    scale held there. ``far`` is None when the start or the free fit has no baseline to scale."""
+    scale held there. The far fit is None when the start or the free fit has no baseline to scale
+    (the two views' centres meet)."""
     R0 = np.asarray(R0, float)
     ca, cb = (np.asarray(c, float) for c in centres)
     args = (line_family, uv_a, owner_a, uv_b, owner_b)
