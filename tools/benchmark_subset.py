@@ -60,6 +60,7 @@ def run_rows(ap, args, names, noise, one) -> list:
     the rows, sorted by configuration, noise and pair, written to ``args.json`` when given."""
     spec = load_benchmark_spec(args.spec)
     spec["reseed"] = getattr(args, "reseed", None)
+    spec["far_from_free"] = bool(getattr(args, "far_from_free", False))
     known = [c["name"] for c in spec["configs"]]
     unknown = [n for n in names if n not in known]
     if unknown:

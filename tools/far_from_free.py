@@ -14,9 +14,9 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-import numpy as np
-
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from scale_choice import far_from_free_fit  # noqa: E402
 from test_relative_pose import _pair  # noqa: E402
 
 from catadioptric.pose import relative_pose, rotation_angle_deg  # noqa: E402
@@ -34,12 +34,8 @@ def main() -> None:
                            centres, far=sm.FAR, **kw):
         free, held = real(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, owner_a, uv_b, owner_b,
                           centres=centres, far=far, **kw)
-        ca, cb = (np.asarray(c, float) for c in centres)
-        base = free.R @ ca + free.t - cb
-        f = max(1.0, far * max(cam_a.mirror.scale, cam_b.mirror.scale) / np.linalg.norm(base))
-        fits["all"] = (free, held, sm.refine_two_view(
-            cam_a, cam_b, free.R, f * base - free.R @ ca + cb, free.directions, ca + f * (free.points - ca),
-            line_family, uv_a, owner_a, uv_b, owner_b, centres=(ca, cb), hold_scale=True, release_scale=0.0, **kw))
+        fits["all"] = (free, held, far_from_free_fit(free, cam_a, cam_b, line_family, uv_a, owner_a, uv_b, owner_b,
+                                                     centres=centres, **kw))
         return free, held
 
     sm.far_and_free_fits = with_far_from_free
