@@ -28,7 +28,8 @@ from .._checks import CatadioptricError, as_scalar
 from .bundle import TwoViewFit, refine_two_view
 from .translation import triangulate_line
 
-__all__ = ["FAR", "TAU", "scale_by_search", "refine_far_or_free", "far_and_free_fits", "common_gap", "pixel_distances"]
+__all__ = ["FAR", "TAU", "scale_by_search", "refine_far_or_free", "far_and_free_fits", "far_start", "common_gap",
+           "pixel_distances"]
 
 FAR = 1e4  # the held baseline, in mirror sizes (QuadricMirror.scale): 500-750 m for the presets' mirrors
 TAU = 6.63  # chi-square of one degree of freedom at 99 %: what the free scale must gain to be kept
@@ -181,14 +182,23 @@ def far_and_free_fits(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, o
     ca, cb = (np.asarray(c, float) for c in centres)
     args = (line_family, uv_a, owner_a, uv_b, owner_b)
     free = refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, *args, centres=(ca, cb), **kwargs)
-    baseline = R0 @ ca + np.asarray(t0, float) - cb
-    length = float(np.linalg.norm(baseline))
-    if length == 0.0 or float(np.linalg.norm(free.R @ ca + free.t - cb)) == 0.0:
+    if float(np.linalg.norm(R0 @ ca + np.asarray(t0, float) - cb)) == 0.0 or \
+            float(np.linalg.norm(free.R @ ca + free.t - cb)) == 0.0:
         return free, None
-    f = max(1.0, far * max(cam_a.mirror.scale, cam_b.mirror.scale) / length)
-    held = refine_two_view(cam_a, cam_b, R0, f * baseline - R0 @ ca + cb, dirs0, ca + f * (np.asarray(points0, float) - ca),
-                           *args, centres=(ca, cb), hold_scale=True, release_scale=0.0, **kwargs)
+    t_far, points_far = far_start(cam_a, cam_b, R0, t0, points0, centres=(ca, cb), far=far)
+    held = refine_two_view(cam_a, cam_b, R0, t_far, dirs0, points_far, *args, centres=(ca, cb), hold_scale=True,
+                           release_scale=0.0, **kwargs)
     return free, held
+
+
+def far_start(cam_a, cam_b, R, t, points, *, centres, far: float = FAR):
+    """A two-view state scaled about the views' centres until the baseline between them is ``far``
+    times the larger mirror's size (not shrunk when already longer), every line with it:
+    ``(t, points)`` at that scale, the rotation unchanged. The baseline must not be zero."""
+    ca, cb = (np.asarray(c, float) for c in centres)
+    base = R @ ca + np.asarray(t, float) - cb
+    f = max(1.0, far * max(cam_a.mirror.scale, cam_b.mirror.scale) / float(np.linalg.norm(base)))
+    return f * base - R @ ca + cb, ca + f * (np.asarray(points, float) - ca)
 
 
 def pixel_distances(fit: TwoViewFit, cam_a, cam_b, uv_a, owner_a, uv_b, owner_b) -> np.ndarray:
