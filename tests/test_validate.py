@@ -44,10 +44,12 @@ def test_curve_pixels_lie_on_the_exact_curve_where_the_label_shows_the_line(pair
 def test_relative_pose_of_a_rendered_pair(pair, tmp_path):
     rep = str(tmp_path / "report")
     code = main(["validate", "relative-pose", pair, "--views", "A", "B", "--out", rep, "--noise", "0", "1",
-                 "--min-pixels", "15"])
+                 "--draws", "2", "--min-pixels", "15"])
     res = json.load(open(os.path.join(rep, "report.json")))
     assert code == (3 if any(d["ambiguous"] for d in res["draws"]) else 0)
-    assert res["views"] == ["A", "B"] and len(res["draws"]) == 2
+    assert res["views"] == ["A", "B"]
+    # two draws at 1 px, one at 0 px (the same pixels in every draw)
+    assert [(d["noise_px"], d["draw"]) for d in res["draws"]] == [(0.0, 0), (1.0, 0), (1.0, 1)]
     R_gt = np.array(res["R_gt"])
     assert np.allclose(R_gt @ R_gt.T, np.eye(3), atol=1e-12)
     d0 = res["draws"][0]

@@ -137,7 +137,8 @@ def benchmark_markdown(spec: dict, agg: dict, results: list, command: str, timin
          f"Scene `{spec['scene']}`, {spec['pairs']} view pairs per configuration, {spec['resolution']} "
          f"({spec['quality']} quality), renderers {', '.join(spec['renderers'])} (pairs alternate); line pixels "
          f"`{spec['pixels']}` (lines with at least {spec['min_pixels']} pixels, at most {spec['max_pixels']} per line "
-         f"and view used), Gaussian noise {noises} px, {spec['draws']} draws each. Families and line "
+         f"and view used), Gaussian noise {noises} px, {spec['draws']} draws each (one at 0 px: the same pixels in "
+         "every draw). Families and line "
          "correspondences come from the labels; which end of each family is which is **searched** (not given). "
          "Frames and conventions: docs/relative_pose.md.", "",
          "Errors are median [first quartile, third quartile] over the draws that were answered (not ambiguous). "

@@ -104,7 +104,8 @@ def evaluate_pair(dataset, names, *, noise_levels=(2.0,), draws: int = 1, seed=0
                   min_pixels: int = 30, max_pixels: int | None = None, ends: str = "unknown",
                   central: bool = True, decisive: float = 25.0) -> dict:
     """Every noise level and draw of the view pair ``names = (A, B)`` of ``dataset`` (a folder or a
-    :class:`catadioptric.Dataset`). Returns the report dict (docs/relative_pose.md, "Report")."""
+    :class:`catadioptric.Dataset`): ``draws`` noise draws per level above 0, one at level 0 (its
+    pixels are the same in every draw). Returns the report dict (docs/relative_pose.md, "Report")."""
     if ends not in ENDS:
         raise CatadioptricError(f"ends: expected one of {list(ENDS)}, got {ends!r}")
     if not (isinstance(draws, (int, np.integer)) and draws >= 1):
@@ -153,7 +154,8 @@ def _evaluate_pair(dataset, names, noise_levels, draws, seed, pixels, min_pixels
            "rig": cams[0].to_dict(), "pixels": pixels, "min_pixels": min_pixels, "max_pixels": max_pixels,
            "ends": ends, "seen": seen, "families_in_both": len(common), "draws": []}
     for noise in noise_levels:
-        for k in range(draws):
+        # without added noise every draw would see the same pixels: one draw, not `draws` copies
+        for k in range(draws if noise > 0 else 1):
             draw_seed = [*np.atleast_1d(seed).tolist(), int(round(noise * 1000)), k]
             rng = np.random.default_rng(draw_seed)
             uvs = [_draw_pixels(b, rng, noise, max_pixels) for b in base]
