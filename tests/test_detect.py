@@ -231,6 +231,51 @@ def test_evaluation_scores_the_truth_perfectly_and_a_shifted_copy_not_at_all(ren
     assert r["recovered_fraction"] < 0.3 and r["line_precision_labels"] < 0.4  # neighbours 3 px apart remain
 
 
+def test_a_missed_family_is_given_its_cause(renders):
+    """Detections made from the labelled curves themselves, each spoiled for one family in one way:
+    the family is reported missed with that cause, and nothing is missed when nothing is spoiled."""
+    v = Dataset(renders["povray"])[0]
+    truth = [t for t in label_curves(v) if len(t["uv"]) >= 20]
+    count = {}
+    for t in truth:
+        count[t["family"]] = count.get(t["family"], 0) + 1
+    fams = sorted(f for f, n in count.items() if n >= 2)
+    assert len(fams) >= 2
+    F = {int(f["index"]): np.asarray(f["direction_M"]) for f in v["families"]}
+    from catadioptric.detect import Family
+
+    def det(spoil=None, victim=None):
+        keep = [t for t in truth if not (spoil == "not detected" and t["family"] == victim)]
+        # the families detected: the victim's is gone unless only its direction is spoiled
+        found = [f for f in fams if not (spoil not in (None, "direction off") and f == victim)]
+        fam_of = {f: k for k, f in enumerate(found)}
+        label = np.array([fam_of.get(t["family"], -1) for t in keep])
+        if spoil == "unassigned":
+            label[[t["family"] == victim for t in keep]] = -1
+        if spoil == "blended":  # its lines joined to the largest family
+            label[[t["family"] == victim for t in keep]] = fam_of[largest]
+        families = []
+        for f in found:
+            d = F[f]
+            if spoil == "direction off" and f == victim:  # 5 degrees off, its lines right
+                a = np.cross(d, [0.0, 0.0, 1.0]) if abs(d[2]) < 0.9 else np.cross(d, [1.0, 0.0, 0.0])
+                d = np.cos(np.radians(5)) * d + np.sin(np.radians(5)) * a / np.linalg.norm(a)
+            families.append(Family(d, np.eye(3) * 1e-8, np.flatnonzero(label == fam_of[f]).tolist(), 0))
+        n = len(keep)
+        return DetectedLines(cam=v["camera"], uv=[t["uv"] for t in keep], normal=np.zeros((n, 3)),
+                             normal_cov=np.zeros((n, 3, 3)), rms=np.zeros(n), polarity=np.zeros(n, int),
+                             width=np.zeros(n), family=label, families=families, image_size=(320, 240))
+
+    assert evaluate_view(det(), v, min_label_pixels=20)["families_missed"] == []
+    victim, largest = min(fams, key=lambda f: count[f]), max(fams, key=lambda f: count[f])
+    assert count[victim] < count[largest]
+    for spoil, cause in (("not detected", "lines not detected"), ("unassigned", "lines unassigned"),
+                         ("direction off", "direction off"), ("blended", "blended")):
+        missed = evaluate_view(det(spoil, victim), v, min_label_pixels=20)["families_missed"]
+        assert [(m["family"], m["cause"]) for m in missed] == [(victim, cause)], (spoil, missed)
+        assert missed[0]["lines"] == count[victim]
+
+
 # --------------------------------------------------------------------------- CLI
 def test_cli_image_and_dataset(renders, tmp_path, capsys):
     view = os.path.join(renders["povray"], "A")

@@ -69,6 +69,30 @@ def test_scored_against_the_labels(street):
     assert run["families_right"], run["matched"]
     assert run["families_recall"] >= 0.5
     assert all(d["recovered_fraction"] > 0.6 for d in r["detection"])
+    # every family the label path uses is matched right or lost, with where it was lost
+    right = {m["true_a"] for m in run["matched"] if m["right"]}
+    lost = {x["family"] for x in run["families_lost"]}
+    assert right.isdisjoint(lost) and (right | lost) >= set(r["families_label"])
+    assert lost <= set(r["families_label"])
+
+
+def test_a_lost_family_is_told_where_it_was_lost():
+    from catadioptric.validate.image_pairs import _lost
+
+    def scores(members, missed):  # a view's detection scores: its families by their lines, the missed ones
+        return {"families_detected": [{"members_family": f} for f in members],
+                "families_missed": [{"family": f, "cause": c} for f, c in missed]}
+
+    sa = scores([0, 1, 2, 5], [(3, "lines not detected")])
+    sb = scores([0, 1, 2, 3], [(5, "lines unassigned"), (4, "blended")])
+    rows = [{"true_a": 0, "true_b": 0, "right": True}, {"true_a": 1, "true_b": 2, "right": False}]
+    lost = _lost((sa, sb), [0, 1, 2, 3, 4, 5], rows)
+    assert [(x["family"], x["cause"]) for x in lost] == [
+        (1, "matched wrong"), (2, "matched wrong"), (3, "A: lines not detected"), (4, "A: blended"),
+        (5, "B: lines unassigned")]
+    assert _lost((sa, sb), [0], rows) == []
+    assert _lost((scores([0, 1], []), scores([0, 1], [])), [0, 1], rows[:1]) == [
+        {"family": 1, "A": "in a family", "B": "in a family", "cause": "not matched"}]
 
 
 def test_cli_writes_pose_report_and_overlay(street, tmp_path, capsys):

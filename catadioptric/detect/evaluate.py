@@ -25,6 +25,13 @@ For a dataset view (:class:`catadioptric.DatasetView`): each labelled line's vis
   (``family_recall``; ``family_recall_3`` over the true families with three lines or more).
   Line assignment: the fraction of the detected lines assigned to a family whose matched true
   family is the family of the line's matched labelled line.
+* **Why a true family is missed** (``families_missed``, one entry per true family no detected
+  family matches): its labelled lines (of ``min_label_pixels``), how many a detected line matches,
+  the detected families those lines went to (-1: unassigned), and the first cause that holds:
+  ``"lines not detected"`` (fewer than two of its lines detected), ``"lines unassigned"`` (fewer
+  than two of its detected lines in a family), ``"direction off"`` (a detected family is this
+  family by its lines, ``members_family``, but its direction is beyond the tolerance),
+  ``"blended"`` (its lines went to families that are other families, or none, by their lines).
 """
 from __future__ import annotations
 
@@ -173,6 +180,7 @@ def evaluate_view(det, view, *, tolerance: float = 1.5, min_label_pixels: int = 
     big = [f for f in present if count[f] >= 3]
     res["families_true_3"] = big
     res["family_recall_3"] = (len(matched_true & set(big)) / len(big)) if big else None
+    res["families_missed"] = _missed(present, long_, truth, match, det, det_match, matched_true)
     # line assignment: a detected line's family against its labelled line's family
     assigned = [(i, int(det.family[i])) for i in range(len(det_uv)) if det.family[i] >= 0 and match[i] >= 0]
     if assigned:
@@ -182,3 +190,30 @@ def evaluate_view(det, view, *, tolerance: float = 1.5, min_label_pixels: int = 
         res["assignment_accuracy"] = None
     res["assigned_fraction"] = float(np.mean(det.family >= 0)) if len(det_uv) else None
     return res
+
+
+def _missed(present, long_, truth, match, det, det_match, matched_true) -> list[dict]:
+    """Each true family that no detected family matches, with what became of its lines (module
+    docstring, "Why a true family is missed")."""
+    out = []
+    for f in present:
+        if f in matched_true:
+            continue
+        segs = {t["segment"] for t in long_ if t["family"] == f}
+        found = [i for i in range(len(match)) if match[i] >= 0 and truth[match[i]]["segment"] in segs]
+        detected = len({truth[match[i]]["segment"] for i in found})
+        went = {}
+        for i in found:
+            went[int(det.family[i])] = went.get(int(det.family[i]), 0) + 1
+        assigned = sum(n for k, n in went.items() if k >= 0)
+        if detected < 2:
+            cause = "lines not detected"
+        elif assigned < 2:
+            cause = "lines unassigned"
+        elif any(k >= 0 and det_match[k].get("members_family") == f for k in went):
+            cause = "direction off"
+        else:
+            cause = "blended"
+        out.append({"family": int(f), "lines": len(segs), "lines_detected": detected,
+                    "went_to": {str(k): n for k, n in sorted(went.items())}, "cause": cause})
+    return out

@@ -17,6 +17,12 @@ direction be within the detection's direction tolerance (``true_family``).
 ``families_recall``: the fraction of ``families_label`` matched right; ``same_families``: both;
 ``same_families_3``: every matched family right and every family with three or more labelled lines
 of ``min_pixels`` in each view (``families_label_3``: those one image can single out) matched.
+``families_lost``: each family of ``families_label`` not matched right, with where it was lost: in
+each view ``"in a family"`` (a detected family is it, by its lines) or the cause the detection's
+scores give (``families_missed`` of :func:`catadioptric.detect.evaluate_view`: lines not detected,
+lines unassigned, blended), and ``cause``: ``"A: ..."`` or ``"B: ..."`` when a view has no family
+of it (A's first), else ``"matched wrong"`` (in a matched family that is not right) or ``"not
+matched"`` (in a family in both views, left out of the assignment).
 """
 from __future__ import annotations
 
@@ -54,6 +60,32 @@ def _families_check(family_map, dets, scores, R, R_gt, label_families, label_fam
         out |= {"matched" + suffix: rows, "families_right" + suffix: right, "families_recall" + suffix: recall,
                 "same_families" + suffix: bool(right and recall == 1.0),
                 "same_families_3" + suffix: bool(right and set(label_families_3) <= right_true)}
+    out["families_lost"] = _lost(scores, label_families, out["matched"])
+    return out
+
+
+def _lost(scores, label_families, rows) -> list[dict]:
+    """Each label family not matched right, and where it was lost (module docstring)."""
+    right = {r["true_a"] for r in rows if r["right"]}
+    out = []
+    for f in label_families:
+        if f in right:
+            continue
+        rec = {"family": int(f)}
+        for side, sc in zip("AB", scores):
+            if any(m.get("members_family") == f for m in sc["families_detected"]):
+                rec[side] = "in a family"
+            else:
+                why = [m["cause"] for m in sc.get("families_missed", []) if m["family"] == f]
+                # not missed by direction, yet no family is it by its lines: the family of its
+                # direction holds mostly other lines
+                rec[side] = why[0] if why else "blended"
+        gone = [f"{side}: {rec[side]}" for side in "AB" if rec[side] != "in a family"]
+        if gone:
+            rec["cause"] = gone[0]
+        else:
+            rec["cause"] = "matched wrong" if any(f in (r["true_a"], r["true_b"]) for r in rows) else "not matched"
+        out.append(rec)
     return out
 
 
