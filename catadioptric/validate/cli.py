@@ -135,7 +135,8 @@ def register(sub) -> None:
     r.add_argument("--out", required=True, metavar="DIR", help="report folder")
     r.add_argument("--noise", type=nonnegative_float, nargs="+", default=[2.0], metavar="PX",
                    help="Gaussian pixel noise levels added to the line pixels (default 2, as the paper)")
-    r.add_argument("--draws", type=positive_int, default=1, help="noise draws per level above 0 (one at 0 px, whose pixels every draw shares; default 1)")
+    r.add_argument("--draws", type=positive_int, default=1,
+                   help="noise draws per level above 0 (one at 0 px, whose pixels every draw shares; default 1)")
     r.add_argument("--seed", type=int, default=0, help="seed of the noise draws (default 0)")
     r.add_argument("--pixels", choices=["curve", "ridge"], default="curve",
                    help="line pixels: the exact curve where the label shows the line (default) or the integer "
