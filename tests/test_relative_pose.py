@@ -257,16 +257,21 @@ def test_a_motion_prior_rules_out_the_symmetric_answers():
 def test_images_continued_between_steps_give_the_searched_answer(name, monkeypatch):
     """The refinement continues each image from the last step's reflection point
     (``warm_start``); searching every image anew at each step gives the same pose: the rotation to
-    1e-9 rad, the translation to a thousandth of its own standard deviation (the sphere's scale is
-    poorly observed with 1 px of noise: metres of deviation, a valley along which the two stop a
-    few micrometres apart)."""
+    a hundredth of its own standard deviation, the translation to a thousandth of its own. The two
+    differ in the last digits of the images, so their steps differ as little, but each stage stops
+    when a step gains less than ``tol_chi2`` (0.01 chi-square units), which along the flattest
+    directions is a few thousandths of a deviation: the scene held far (the answer on these pairs,
+    both fits with every line in front of both views from the start) stops 1e-3 (hyperboloid) and
+    3e-3 (sphere) of the rotation's deviation apart; the sphere's scale is poorly observed with 1
+    px of noise (metres of deviation, a valley along which the two stop millimetres apart)."""
     from catadioptric.pose import bundle
 
     va, vb, R_gt, t_gt = _pair(name, noise=1.0, seed=4)
     warm = relative_pose(va, vb)
     monkeypatch.setitem(bundle.refine_two_view.__kwdefaults__, "warm_start", False)
     cold = relative_pose(va, vb)
-    assert np.radians(rotation_angle_deg(warm.R @ cold.R.T)) < 1e-9
+    r_sd = np.sqrt(np.linalg.eigvalsh(warm.cov[:3, :3]).max())
+    assert np.radians(rotation_angle_deg(warm.R @ cold.R.T)) < 1e-2 * r_sd
     t_sd = np.sqrt(np.linalg.eigvalsh(warm.cov[3:, 3:]).max())
     assert np.linalg.norm(warm.t - cold.t) < 1e-3 * t_sd + 1e-9, (np.linalg.norm(warm.t - cold.t), t_sd)
     assert rotation_angle_deg(warm.R @ R_gt.T) < 1.0

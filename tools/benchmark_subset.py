@@ -5,7 +5,8 @@ without writing results (for comparing two versions of the code on the same draw
     .venv/bin/python tools/benchmark_subset.py hyperboloid,sphere --pairs 20 --noise 2 [--json OUT]
 
 The pairs, their seeds and the pixels are the benchmark's (validate/relative_pose.toml, one draw
-per pair and noise level, every pixel of each line); it needs the benchmark's rendered datasets
+per pair and noise level unless ``--draws N``, every pixel of each line; with the spec's
+``draws`` and ``--pairs 20`` a cell is the benchmark's own, draw for draw); it needs the benchmark's rendered datasets
 (``render/out/relative_pose_benchmark``, made by ``catadioptric validate benchmark``). To compare
 two commits, run it from the main checkout on the library of each (``git worktree add /tmp/old
 COMMIT``, then ``PYTHONPATH=/tmp/old .venv/bin/python tools/benchmark_subset.py ...``: the
@@ -28,7 +29,8 @@ def _one(args):
     data, spec, config, pair, noise = args
     from catadioptric.validate.relative_pose import evaluate_pair
 
-    r = evaluate_pair(dataset_folder(data, config, pair.renderer), pair.names, noise_levels=noise, draws=1,
+    r = evaluate_pair(dataset_folder(data, config, pair.renderer), pair.names, noise_levels=noise,
+                      draws=spec.get("subset_draws", 1),
                       seed=seed_of(spec, pair), pixels=spec["pixels"], min_pixels=spec["min_pixels"],
                       max_pixels=spec["max_pixels"])
     rows = []
@@ -61,6 +63,7 @@ def run_rows(ap, args, names, noise, one) -> list:
     spec = load_benchmark_spec(args.spec)
     spec["reseed"] = getattr(args, "reseed", None)
     spec["far_from_free"] = bool(getattr(args, "far_from_free", False))
+    spec["subset_draws"] = int(getattr(args, "draws", 1))
     known = [c["name"] for c in spec["configs"]]
     unknown = [n for n in names if n not in known]
     if unknown:
@@ -86,19 +89,28 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--json", help="write every draw's errors here")
     ap.add_argument("--reseed", type=int, help="other noise draws than the benchmark's (seed [spec seed, pair, K])")
+    ap.add_argument("--draws", type=int, default=1,
+                    help="draws per pair and noise level above 0 (the spec's draws give the benchmark's own cells)")
     args = ap.parse_args()
+    if args.draws < 1:
+        ap.error(f"--draws: expected a positive integer, got {args.draws}")
     names = args.configs.split(",")
     noise = [float(x) for x in args.noise.split(",")]
     rows = run_rows(ap, args, names, noise, _one)
-    print("config | noise px | draws | exact rotation | central rotation | exact better | "
+    from scipy.stats import wilcoxon
+
+    print("config | noise px | draws | exact rotation | central rotation | exact better | Wilcoxon p | "
           "exact t direction | central t direction (medians, degrees)")
     for name in names:
         for nz in noise:
             sel = [r for r in rows if r["config"] == name and r["noise_px"] == nz]
             both = [r for r in sel if r["exact_deg"] is not None and r["central_deg"] is not None]
             better = sum(r["exact_deg"] < r["central_deg"] for r in both)
+            diff = [r["exact_deg"] - r["central_deg"] for r in both]
+            p = wilcoxon(diff).pvalue if len(diff) >= 6 and any(diff) else float("nan")
             print(f"{name} | {nz:g} | {len(sel)} | {_median(sel, 'exact_deg'):.3f} | {_median(sel, 'central_deg'):.3f} | "
-                  f"{better}/{len(both)} | {_median(sel, 'exact_t_dir_deg'):.2f} | {_median(sel, 'central_t_dir_deg'):.2f}")
+                  f"{better}/{len(both)} | {p:.2g} | {_median(sel, 'exact_t_dir_deg'):.2f} | "
+                  f"{_median(sel, 'central_t_dir_deg'):.2f}")
 
 
 if __name__ == "__main__":

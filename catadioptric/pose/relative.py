@@ -36,7 +36,7 @@ from .families import FamilyEstimate, ViewLines, fit_view_families, is_central
 from .rotation import rotation_angle_deg
 from .scale import refine_far_or_free, scale_by_search
 from .signs import sign_candidates
-from .translation import triangulate_line
+from .translation import ray_depths, triangulate_line
 
 __all__ = ["Candidate", "RelativePose", "relative_pose"]
 
@@ -198,11 +198,24 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, s
     rays_ab = [(dirs_a[fam_index[key]], np.concatenate([ok(a)[0], (ok(b)[0] - t0) @ R]),
                 np.concatenate([ok(a)[1], ok(b)[1] @ R])) for (key, _, _), a, b in zip(matched, ra, rb)]
     tri = [triangulate_line(*r) for r in rays_ab]
+    # a line the start puts behind either view is not placed: the search's length can be far from
+    # the true one (a near-central rig barely tells it), and then two views' planes of a line nearly
+    # parallel to the baseline can meet behind a view, where none of its pixels can be explained
+    n_a = [len(ok(a)[0]) for a in ra]
+    front = [bool(np.median(ray_depths(q, s, o[:k], d[:k])) > 0 and np.median(ray_depths(q, s, o[k:], d[k:])) > 0)
+             for (q, _), (s, o, d), k in zip(tri, rays_ab, n_a)]
+    tri = [(q, well and f) for (q, well), f in zip(tri, front)]
     dist = [np.linalg.norm(np.cross(q - c_a, r[0])) for (q, well), r in zip(tri, rays_ab) if well]
     d_med = float(np.median(dist)) if dist else 10.0 * float(np.linalg.norm(t0))
     pts = []
-    for (q, well), (s, o, d), (key, ka, _) in zip(tri, rays_ab, matched):
-        if not well:  # in its plane through c_A, as far as the well-placed lines' median
+    for (q, well), (s, o, d), (key, ka, _), f, k in zip(tri, rays_ab, matched, front, n_a):
+        if not f:  # in its plane through c_A, on the side A's rays see, as far as the placed lines' median
+            u = np.cross(ea[key].normals[ka], s)
+            u = u / np.linalg.norm(u) if np.linalg.norm(u) > 0 else u
+            u = -u if k and np.mean(d[:k] @ u) < 0 else u
+            q = c_a + d_med * u
+            q = q - (q @ s) * s
+        elif not well:  # in its plane through c_A, as far as the well-placed lines' median
             u = np.cross(ea[key].normals[ka], s)
             u = u / np.linalg.norm(u) if np.linalg.norm(u) > 0 else u
             u = -u if len(d) and np.mean(d @ u) < 0 else u

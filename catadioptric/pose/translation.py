@@ -10,7 +10,7 @@ import numpy as np
 
 from .._checks import CatadioptricError, as_float_array, as_rotation
 
-__all__ = ["translation_from_lines", "relative_translation_from_lines", "triangulate_line"]
+__all__ = ["translation_from_lines", "relative_translation_from_lines", "triangulate_line", "ray_depths"]
 
 
 def translation_from_lines(R, world_lines, ray_lines, line_index) -> np.ndarray:
@@ -114,27 +114,61 @@ def relative_translation_from_lines(R, lines_a, lines_b, rays_a, owner_a, rays_b
     return t, res
 
 
-def triangulate_line(s, o, d, prior=None):
+def ray_depths(q, s, o, d) -> np.ndarray:
+    """How far along each ray ``o + lambda d`` (``d`` made unit) its point nearest the line through
+    ``q`` along unit ``s`` lies, ``(M,)``: negative where the ray meets the line behind its origin
+    (the line is behind that view); 0 for a ray parallel to the line."""
+    d = np.asarray(d, float)
+    d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    w = np.asarray(o, float) - q
+    b = d @ s
+    den = 1.0 - b * b
+    with np.errstate(invalid="ignore", divide="ignore"):
+        lam = (b * (w @ s) - np.sum(d * w, axis=1)) / den
+    return np.where(den > 1e-12, lam, 0.0)
+
+
+def triangulate_line(s, o, d, prior=None, iters: int = 1):
     """The point (normal to ``s``) of the line along unit ``s`` that best meets rays ``o, d``, and
     whether the rays fix it (``(q, well_posed)``). A line parallel to the baseline lies in one
     plane with both centres: two near-central views then see only that plane, and the point
-    along it comes from ``prior`` (a point, taken where the rays leave it free)."""
+    along it comes from ``prior`` (a point, taken where the rays leave it free).
+
+    Each ray's miss is weighed as the angle it subtends from the ray's origin (the metric miss over
+    the ray's depth to the line, :func:`ray_depths`, the depths of the unweighted solve; ``iters``
+    reweighted solves), because pixels measure angles: weighed in metres, the rays of a view far
+    from the line (a start whose baseline is tens of metres, to a line a metre from the other view)
+    count the near view's misses at a fraction of their weight, and where the two views' planes
+    nearly coincide (a line nearly parallel to the baseline) the line follows the far view. More
+    than one reweighting can run away: the miss in angle of a line through a view's centre is
+    undefined, and a line whose distance the rays barely fix moves towards it."""
+    s = np.asarray(s, float)
+    o = np.asarray(o, float)
+    d = np.asarray(d, float)
     e1 = np.cross(s, [1.0, 0.0, 0.0] if abs(s[0]) < 0.8 else [0.0, 1.0, 0.0])
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(s, e1)
     # reciprocal product of the line (s, x e1' + y e2') with the ray (d, o x d), e' spanning m
     m1, m2 = np.cross(e1, s), np.cross(e2, s)  # moments of unit offsets along e1, e2
-    A = np.stack([d @ m1, d @ m2], axis=1)
-    rhs = -(np.cross(o, d) @ s)
+    A0 = np.stack([d @ m1, d @ m2], axis=1)
+    rhs0 = -(np.cross(o, d) @ s)
     sine = np.maximum(np.linalg.norm(np.cross(d, s), axis=1), 1e-9)
-    A, rhs = A / sine[:, None], rhs / sine
-    N = A.T @ A
-    ev = np.linalg.eigvalsh(N)
-    well = bool(ev[0] > 1e-4 * ev[1])
-    if prior is not None and not well:  # a ridge towards the prior, felt only along the free direction
-        p = np.array([prior @ e1, prior @ e2])
-        lam = 1e-3 * ev[1]
-        xy = np.linalg.solve(N + lam * np.eye(2), A.T @ rhs + lam * p)
-    else:
-        xy = np.linalg.lstsq(A, rhs, rcond=None)[0]
-    return xy[0] * e1 + xy[1] * e2, well
+    A0, rhs0 = A0 / sine[:, None], rhs0 / sine  # rows: the metric miss of each ray
+    w = np.ones(len(d))
+    for it in range(iters + 1):
+        A, rhs = A0 * w[:, None], rhs0 * w
+        N = A.T @ A
+        ev = np.linalg.eigvalsh(N)
+        well = bool(ev[0] > 1e-4 * ev[1])
+        if prior is not None and not well:  # a ridge towards the prior, felt only along the free direction
+            p = np.array([prior @ e1, prior @ e2])
+            lam = 1e-3 * ev[1]
+            xy = np.linalg.solve(N + lam * np.eye(2), A.T @ rhs + lam * p)
+        else:
+            xy = np.linalg.lstsq(A, rhs, rcond=None)[0]
+        q = xy[0] * e1 + xy[1] * e2
+        if it == iters:
+            break
+        depth = np.abs(ray_depths(q, s, o, d))
+        w = 1.0 / np.maximum(depth, 1e-3 * max(float(np.median(depth)), 1e-12))
+    return q, well
