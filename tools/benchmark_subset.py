@@ -6,7 +6,9 @@ without writing results (for comparing two versions of the code on the same draw
 
 The pairs, their seeds and the pixels are the benchmark's (validate/relative_pose.toml, one draw
 per pair and noise level unless ``--draws N``, every pixel of each line; with the spec's
-``draws`` and ``--pairs 20`` a cell is the benchmark's own, draw for draw); it needs the benchmark's rendered datasets
+``draws`` and ``--pairs 20`` a cell is the benchmark's own, draw for draw, and ``--against
+validate/relative_pose/report.json`` sets each cell beside the committed report's draws;
+``--from-json ROWS`` prints from rows written by ``--json``); it needs the benchmark's rendered datasets
 (``render/out/relative_pose_benchmark``, made by ``catadioptric validate benchmark``). To compare
 two commits, run it from the main checkout on the library of each (``git worktree add /tmp/old
 COMMIT``, then ``PYTHONPATH=/tmp/old .venv/bin/python tools/benchmark_subset.py ...``: the
@@ -36,7 +38,7 @@ def _one(args):
     rows = []
     for d in r["draws"]:
         c = d.get("central", {})
-        rows.append({"config": config, "pair": pair.index, "noise_px": d["noise_px"],
+        rows.append({"config": config, "pair": pair.index, "noise_px": d["noise_px"], "draw": d["draw"],
                      "exact_deg": d.get("rotation_error_deg"), "central_deg": c.get("rotation_error_deg"),
                      "exact_t_dir_deg": d.get("translation_direction_error_deg"),
                      "central_t_dir_deg": c.get("translation_direction_error_deg"),
@@ -91,12 +93,19 @@ def main() -> None:
     ap.add_argument("--reseed", type=int, help="other noise draws than the benchmark's (seed [spec seed, pair, K])")
     ap.add_argument("--draws", type=int, default=1,
                     help="draws per pair and noise level above 0 (the spec's draws give the benchmark's own cells)")
+    ap.add_argument("--from-json", help="print the table from rows written by --json instead of computing them")
+    ap.add_argument("--against", help="a benchmark report.json: each cell's exact model before (the report's draws) "
+                                      "and after (these rows), draw by draw")
     args = ap.parse_args()
     if args.draws < 1:
         ap.error(f"--draws: expected a positive integer, got {args.draws}")
     names = args.configs.split(",")
     noise = [float(x) for x in args.noise.split(",")]
-    rows = run_rows(ap, args, names, noise, _one)
+    if args.from_json:
+        with open(args.from_json) as f:
+            rows = json.load(f)
+    else:
+        rows = run_rows(ap, args, names, noise, _one)
     from scipy.stats import wilcoxon
 
     print("config | noise px | draws | exact rotation | central rotation | exact better | Wilcoxon p | "
@@ -111,6 +120,47 @@ def main() -> None:
             print(f"{name} | {nz:g} | {len(sel)} | {_median(sel, 'exact_deg'):.3f} | {_median(sel, 'central_deg'):.3f} | "
                   f"{better}/{len(both)} | {p:.2g} | {_median(sel, 'exact_t_dir_deg'):.2f} | "
                   f"{_median(sel, 'central_t_dir_deg'):.2f}")
+    if args.against:
+        against(rows, args.against, names, noise)
+
+
+def _draw_keys(rows) -> list:
+    """``(config, pair, noise, draw)`` of each row; rows written before the ``draw`` field count their
+    draws in the order they come within a pair and level (``evaluate_pair``'s order)."""
+    seen, keys = {}, []
+    for r in rows:
+        k = (r["config"], r["pair"], r["noise_px"])
+        i = r["draw"] if "draw" in r else seen.get(k, 0)
+        seen[k] = seen.get(k, 0) + 1
+        keys.append(k + (i,))
+    return keys
+
+
+def against(rows, report_path, names, noise) -> None:
+    """Each cell's exact-model rotation before (the draws of ``report_path``, a benchmark report)
+    and after (``rows``) on the same draws: medians, draws better after, Wilcoxon signed-rank p,
+    and the draws whose scale was held far in each."""
+    from scipy.stats import wilcoxon
+
+    with open(report_path) as f:
+        rep = json.load(f)
+    before = {(p["config"], p["pair"], d["noise_px"], d["draw"]): d for p in rep["pairs"] for d in p["draws"]}
+    after = dict(zip(_draw_keys(rows), rows))
+    print(f"against {report_path}: config | noise px | draws | before | after | after better | Wilcoxon p | "
+          "held far before / after (median rotation errors, degrees)")
+    for name in names:
+        for nz in noise:
+            ks = [k for k in after if k[0] == name and k[2] == nz and k in before
+                  and after[k]["exact_deg"] is not None and before[k].get("rotation_error_deg") is not None]
+            if not ks:
+                continue
+            b = np.array([before[k]["rotation_error_deg"] for k in ks])
+            a = np.array([after[k]["exact_deg"] for k in ks])
+            p = wilcoxon(a - b).pvalue if len(ks) >= 6 and np.any(a != b) else float("nan")
+            held_b = sum(bool(before[k].get("scale_held")) for k in ks)
+            held_a = sum(bool(after[k].get("scale_held")) for k in ks)
+            print(f"{name} | {nz:g} | {len(ks)} | {np.median(b):.3f} | {np.median(a):.3f} | {int(np.sum(a < b))}/{len(ks)} | "
+                  f"{p:.2g} | {held_b} / {held_a}")
 
 
 if __name__ == "__main__":

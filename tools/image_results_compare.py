@@ -11,7 +11,8 @@ benchmark computes a pair again when the package's code has changed, ``benchmark
 ``misses``: the label families (two labelled lines of 30 pixels in both views) that the answer
 with the prior does not match right, by the number of labelled lines in the sparser view.
 ``compare``: per prior, the pairs with the same families, all matched families right, ambiguous
-and wrong unflagged in each run; then the pairs where ``NEW`` found families in both views at
+and wrong unflagged in each run; the median rotation error of the answered, unambiguous pairs per
+configuration in each; then the pairs where ``NEW`` found families in both views at
 once, with their rotation errors, families all right and recall before and after. Needs the
 benchmark's datasets for ``misses`` (render/out/relative_pose_benchmark/datasets).
 """
@@ -21,6 +22,8 @@ import argparse
 import collections
 import json
 from pathlib import Path
+
+import numpy as np
 
 DATASETS = Path("render/out/relative_pose_benchmark/datasets")
 
@@ -72,6 +75,14 @@ def compare(base_dir, new_dir, prior):
                 t[tag, "wrong unflagged"] += (not r["ambiguous"]) and r["rotation_error_deg"] > 10
         print(f"prior {p}: " + ", ".join(f"{what} {t['base', what]} -> {t['new', what]}" for what in
                                            ("same families", "all right", "ambiguous", "wrong unflagged", "failed")))
+    print(f"prior {prior}: median rotation error of the answered, unambiguous pairs (degrees), per configuration:")
+    for cfg in sorted({k.split("/")[0] for k in keys}):
+        med = []
+        for runs in (base, new):
+            e = [r["rotation_error_deg"] for k in keys if k.startswith(cfg + "/")
+                 for r in [_run(runs[k], prior)] if r is not None and "error" not in r and not r["ambiguous"]]
+            med.append(f"{np.median(e):.3f} ({len(e)})" if e else "- (0)")
+        print(f"  {cfg}: {med[0]} -> {med[1]}")
     rows, better = [], 0
     for k in keys:
         b, n = _run(base[k], prior), _run(new[k], prior)

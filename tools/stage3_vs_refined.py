@@ -11,18 +11,20 @@ Needs the benchmark's datasets (render/out/relative_pose_benchmark).
 from __future__ import annotations
 
 import argparse
-from multiprocessing import get_context
+import sys
+from pathlib import Path
 
 import numpy as np
 
-from catadioptric.validate.benchmark import dataset_folder
-from catadioptric.validate.benchmark_spec import load_benchmark_spec, pairs_of
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmark_subset import run_rows, seed_of  # noqa: E402
 
 
 def _one(args):
-    data, spec, config, pair, noise, draws = args
+    data, spec, config, pair, noise = args
     import catadioptric.pose.relative as rel
     from catadioptric.pose import rotation_angle_deg
+    from catadioptric.validate.benchmark import dataset_folder
     from catadioptric.validate.relative_pose import evaluate_pair
 
     calls = []
@@ -34,15 +36,16 @@ def _one(args):
         return fit, n
 
     rel._noncentral_candidate = spy
-    r = evaluate_pair(dataset_folder(data, config, pair.renderer), pair.names, noise_levels=[noise], draws=draws,
-                      seed=[spec["seed"], pair.index], pixels=spec["pixels"], min_pixels=spec["min_pixels"],
-                      max_pixels=spec["max_pixels"])
+    r = evaluate_pair(dataset_folder(data, config, pair.renderer), pair.names, noise_levels=noise,
+                      draws=spec["subset_draws"], seed=seed_of(spec, pair), pixels=spec["pixels"],
+                      min_pixels=spec["min_pixels"], max_pixels=spec["max_pixels"])
     R_gt = np.asarray(r["R_gt"])
     rows = []
     for d in r["draws"]:
         R = np.asarray(d["R"])
         start = [s for s, f in calls if f is not None and np.allclose(f, R, atol=1e-12)]
-        rows.append({"config": config, "pair": pair.index, "refined": d.get("rotation_error_deg"),
+        rows.append({"config": config, "pair": pair.index, "noise_px": d["noise_px"],
+                     "refined": d.get("rotation_error_deg"),
                      "stage3": rotation_angle_deg(start[-1] @ R_gt.T) if start else None,
                      "central": d.get("central", {}).get("rotation_error_deg")})
     return rows
@@ -51,21 +54,16 @@ def _one(args):
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("configs", help="comma-separated configuration names of the spec")
-    ap.add_argument("--pairs", type=int, default=20)
+    ap.add_argument("--pairs", type=int, default=20, help="the first N pairs of each configuration")
     ap.add_argument("--noise", type=float, default=2.0)
-    ap.add_argument("--draws", type=int, default=3)
+    ap.add_argument("--draws", type=int, default=3, help="draws per pair (the spec's 3: the benchmark's own cell)")
     ap.add_argument("--spec", default="validate/relative_pose.toml")
     ap.add_argument("--data", default="render/out/relative_pose_benchmark")
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--json", help="write every draw's errors here")
     args = ap.parse_args()
-    spec = load_benchmark_spec(args.spec)
     names = args.configs.split(",")
-    known = {c["name"]: c for c in spec["configs"]}
-    if any(n not in known for n in names):
-        ap.error(f"configs: expected names among {list(known)}, got {names}")
-    tasks = [(args.data, spec, n, p, args.noise, args.draws) for n in names for p in pairs_of(spec, known[n])[:args.pairs]]
-    with get_context("spawn").Pool(args.workers) as pool:
-        rows = [r for rr in pool.imap_unordered(_one, tasks) for r in rr]
+    rows = run_rows(ap, args, names, [args.noise], _one)
     print("config | draws | refined | stage 3 | central | refinement better (median rotation errors, degrees)")
     for n in names:
         sel = [r for r in rows if r["config"] == n and r["stage3"] is not None]
