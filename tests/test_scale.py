@@ -77,9 +77,42 @@ def test_the_far_fit_is_scaled_to_the_free_fit_s_length(monkeypatch):
     assert u @ fit.cov[3:, 3:] @ u == pytest.approx(u @ free.cov[3:, 3:] @ u, rel=1e-9)
 
 
+def test_a_gap_with_the_length_unknown_keeps_the_far_fit(monkeypatch):
+    """The free fit is kept only when its own covariance also tells the scale: box scene,
+    hyperbolic rig, 2 px, where the free fit's baseline length has a relative deviation of 42.
+    With the common-ground gap forced far above tau (as a free fit stopped in another minimum of
+    its lines gives it), the answer is still the far fit; it is the free fit only when the bar on
+    the length's deviation is lifted above that deviation."""
+    va, vb, R_gt, t_gt = _pair("hyperboloid", noise=2.0, seed=4)
+    monkeypatch.setattr(scale_mod, "common_gap", lambda *a, **k: 1e6)
+    calls = _spy(monkeypatch)
+    fit = relative_pose(va, vb).candidates[0].fit
+    (_, free, _), (_, held, _) = calls[-2:]
+    assert fit.far_gap == 1e6 and fit.scale_std > 40.0 > scale_mod.MAX_SCALE_STD
+    assert fit.scale_held and np.array_equal(fit.R, held.R)
+    real = scale_mod.refine_far_or_free
+    monkeypatch.setattr("catadioptric.pose.relative.refine_far_or_free",
+                        lambda *a, **k: real(*a, max_scale_std=1e3, **k))
+    fit = relative_pose(va, vb).candidates[0].fit
+    (_, free, _), _ = calls[-2:]
+    assert not fit.scale_held and np.array_equal(fit.R, free.R)
+
+
+def test_the_bar_on_the_length_is_the_gap_s_level():
+    """``MAX_SCALE_STD`` asks of the length's Wald test what ``TAU`` asks of the likelihood ratio:
+    a normal variable beyond sqrt(TAU) deviations is as rare as a chi-square of one degree of
+    freedom beyond TAU (99 %)."""
+    from scipy.stats import chi2, norm
+
+    assert scale_mod.MAX_SCALE_STD == pytest.approx(1.0 / np.sqrt(scale_mod.TAU), rel=1e-15)
+    assert 2 * norm.sf(1.0 / scale_mod.MAX_SCALE_STD) == pytest.approx(chi2.sf(scale_mod.TAU, 1), rel=1e-12)
+    assert chi2.sf(scale_mod.TAU, 1) == pytest.approx(0.01, abs=1e-4)
+
+
 @pytest.mark.parametrize("kwargs, error, match", [
     ({"far": 0.0}, CatadioptricError, r"far: expected a positive number, got 0\.0"),
     ({"tau": -1.0}, CatadioptricError, r"tau: expected a cost difference of at least 0, got -1\.0"),
+    ({"max_scale_std": 0.0}, CatadioptricError, r"max_scale_std: expected a positive number, got 0\.0"),
     ({"hold_scale": True}, TypeError, "hold_scale is set by the function itself"),
     ({"release_scale": 0.1}, TypeError, "release_scale is set by the function itself"),
 ])

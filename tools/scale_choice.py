@@ -107,6 +107,10 @@ RULES = {
         r["free_deg"] if r["gap"] > 6.63 and (r.get("free_sigma") or 0.0) < (r.get("far_sigma") or 0.0) else r["far_deg"]),
     "common-ground gap > TAU (refine_far_or_free)": lambda r: (
         r["free_deg"] if (r.get("common_gap") if r.get("common_gap") is not None else -1.0) > 6.63 else r["far_deg"]),
+    "common-ground gap > TAU and the length told (scale_std < MAX_SCALE_STD, the rule since the bar)": lambda r: (
+        r["free_deg"] if (r.get("common_gap") if r.get("common_gap") is not None else -1.0) > 6.63
+        and (r.get("scale_std") if r.get("scale_std") is not None else float("inf")) < 1.0 / np.sqrt(6.63)
+        else r["far_deg"]),
     "always far, started from the free fit's end (--far-from-free)": lambda r: r.get("far_from_free_deg"),
     "oracle (the better by the truth)": lambda r: min(r["free_deg"], r["far_deg"]),
     "central baseline": lambda r: r["central_deg"],

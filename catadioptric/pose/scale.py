@@ -13,8 +13,10 @@ degree (docs/relative_pose.md, "The scale: far unless the pixels tell it").
 * :func:`refine_far_or_free`: the refinement twice, with the scene held far away (near the
   central limit of the rig: the baseline ``far`` mirror sizes long and every line with it) and
   with the scale free (:func:`far_and_free_fits`); the free fit is the answer only where the
-  pixels tell the scale (:func:`common_gap`: both fits scored on every pixel with one loss, the
-  free one better by more than ``tau``, a likelihood ratio with one degree of freedom);
+  pixels tell the scale: it explains them better (:func:`common_gap`: both fits scored on every
+  pixel with one loss, the free one better by more than ``tau``, a likelihood ratio with one
+  degree of freedom) *and* its own covariance places the scene short of infinity (the baseline's
+  length more than ``1 / max_scale_std`` deviations from zero, a Wald test at the same level);
   otherwise the far fit, scaled to the free fit's length. The answer says which
   (:attr:`~catadioptric.pose.bundle.TwoViewFit.scale_held`).
 """
@@ -28,11 +30,14 @@ from .._checks import CatadioptricError, as_scalar
 from .bundle import TwoViewFit, refine_two_view
 from .translation import triangulate_line
 
-__all__ = ["FAR", "TAU", "scale_by_search", "refine_far_or_free", "far_and_free_fits", "far_start", "common_gap",
+__all__ = ["FAR", "TAU", "MAX_SCALE_STD", "scale_by_search", "refine_far_or_free", "far_and_free_fits", "far_start", "common_gap",
            "pixel_distances"]
 
 FAR = 1e4  # the held baseline, in mirror sizes (QuadricMirror.scale): 500-750 m for the presets' mirrors
 TAU = 6.63  # chi-square of one degree of freedom at 99 %: what the free scale must gain to be kept
+# the free fit's baseline length over its deviation must exceed sqrt(TAU) (normal, two-sided 99 %): the
+# largest relative deviation of a length the pixels tell
+MAX_SCALE_STD = 1.0 / np.sqrt(TAU)
 
 
 def scale_by_search(va, vb, lines, dirs, R, t_dir, offset, sigma, n_pixels=12):
@@ -123,7 +128,8 @@ def _held_at_length(held, free, ca, cb):
 
 
 def refine_far_or_free(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, owner_a, uv_b, owner_b, *,
-                       centres, far: float = FAR, tau: float = TAU, **kwargs) -> TwoViewFit:
+                       centres, far: float = FAR, tau: float = TAU, max_scale_std: float = MAX_SCALE_STD,
+                       **kwargs) -> TwoViewFit:
     """:func:`~catadioptric.pose.bundle.refine_two_view` with the scene held far unless the pixels
     fix its scale.
 
@@ -139,8 +145,14 @@ def refine_far_or_free(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, 
 
     The pixels tell the scale when the free fit explains them better than the far one by more than
     ``tau`` on common ground (:func:`common_gap`: every pixel given, one truncated quadratic loss,
-    the pixels' noise as the free fit estimates it, or ``pixel_sigma``): the free fit is then the
-    answer. Otherwise the answer is the far fit scaled to the free fit's length: its rotation,
+    the pixels' noise as the free fit estimates it, or ``pixel_sigma``) and its baseline's length
+    has a relative deviation below ``max_scale_std`` (its own covariance; default
+    ``1 / sqrt(tau)``: the inverse of the length, zero for the far fit's scene at infinity, is
+    then more than ``sqrt(tau)`` deviations from zero): the free fit is then the answer. A gap
+    with the length unknown is not the scale's doing: the free fit has stopped in another minimum
+    of its lines, which on the relative-pose benchmark gave the worse rotation more often than not
+    (docs/relative_pose.md, "The scale: far unless the pixels tell it"). Otherwise the answer is
+    the far fit scaled to the free fit's length: its rotation,
     family directions and the scene's shape, the free fit's size, whose deviation (in the
     covariance, along the baseline) says how poorly the pixels know it. The fit records the choice
     (``scale_held``), the gap (``far_gap``, far minus free) and the free fit's relative deviation
@@ -155,6 +167,7 @@ def refine_far_or_free(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, 
     tau = as_scalar(tau, "tau")
     if tau < 0:
         raise CatadioptricError(f"tau: expected a cost difference of at least 0, got {tau!r}")
+    max_scale_std = as_scalar(max_scale_std, "max_scale_std", positive=True)
     for k in ("hold_scale", "release_scale"):
         if k in kwargs:
             raise TypeError(f"refine_far_or_free: {k} is set by the function itself, got {k}={kwargs[k]!r}")
@@ -166,7 +179,7 @@ def refine_far_or_free(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, 
         return replace(free, scale_held=False, far_gap=float("inf"), scale_std=std)
     gap = common_gap(free, held, cam_a, cam_b, uv_a, owner_a, uv_b, owner_b,
                      cap=kwargs.get("inlier_sigmas", 3.5), sigma=kwargs.get("pixel_sigma"))
-    if gap > tau:
+    if gap > tau and std < max_scale_std:
         return replace(free, scale_held=False, far_gap=gap, scale_std=std)
     return replace(_held_at_length(held, free, ca, cb), scale_held=True, far_gap=gap, scale_std=std)
 
