@@ -57,7 +57,9 @@ def jsonable(x):
     return x
 
 
-def atomic_write_json(path, obj, *, indent: int = 1) -> None:
+def atomic_write_json(path, obj, *, indent: int | None = 1) -> None:
+    """Write ``obj`` (made JSON-ready by :func:`jsonable`) to ``path`` atomically; ``indent=None``:
+    on one line, for large files read by programs only."""
     atomic_write_bytes(path, (json.dumps(jsonable(obj), indent=indent, allow_nan=False) + "\n").encode())
 
 
