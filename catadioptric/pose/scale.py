@@ -30,8 +30,8 @@ from .._checks import CatadioptricError, as_scalar
 from .bundle import TwoViewFit, refine_two_view
 from .translation import triangulate_line
 
-__all__ = ["FAR", "TAU", "MAX_SCALE_STD", "scale_by_search", "refine_far_or_free", "far_and_free_fits", "far_start", "common_gap",
-           "pixel_distances"]
+__all__ = ["FAR", "TAU", "MAX_SCALE_STD", "scale_by_search", "refine_far_or_free", "far_and_free_fits", "far_start",
+           "common_gap", "pixel_distances"]
 
 FAR = 1e4  # the held baseline, in mirror sizes (QuadricMirror.scale): 500-750 m for the presets' mirrors
 TAU = 6.63  # chi-square of one degree of freedom at 99 %: what the free scale must gain to be kept
