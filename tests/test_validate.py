@@ -205,3 +205,26 @@ def test_the_central_approximations_own_error():
     e = central_model_error_px(load_rig("hyperboloid", width=640, height=480))
     assert 0.1 < e < 0.4  # 0.204 px when measured
     assert central_approximation(load_rig("hyperboloid", width=640, height=480)).viewpoint.shape == (3,)
+
+
+def test_the_medians_interval_resamples_pairs_not_draws():
+    """``median_interval`` resamples pairs with all their draws: three identical draws per pair
+    give the interval of one draw per pair (resampling draws one by one would narrow it by about
+    sqrt(3)); it is seeded, holds the median, and ignores missing values."""
+    from catadioptric.validate.benchmark_report import median_interval
+
+    rng = np.random.default_rng(7)
+    one = [[float(v)] for v in rng.lognormal(-1.5, 0.5, 20)]
+    three = [[g[0]] * 3 for g in one]
+    a, b = median_interval(one), median_interval(three)
+    assert a["pairs"] == b["pairs"] == 20
+    assert a["median"] == pytest.approx(float(np.median([g[0] for g in one])), rel=1e-15)
+    assert (a["lo"], a["hi"]) == pytest.approx((b["lo"], b["hi"]), rel=1e-12)
+    assert a["lo"] < a["median"] < a["hi"]
+    flat = [[v] for g in three for v in g]  # the same 60 values as 60 independent "pairs"
+    c = median_interval(flat)
+    assert c["hi"] - c["lo"] < 0.8 * (a["hi"] - a["lo"])
+    assert median_interval(three) == b
+    with_missing = three + [[None, float("nan")]]
+    assert median_interval(with_missing) == b
+    assert median_interval([[None]])["median"] is None
