@@ -159,6 +159,17 @@ def _corners(meeting, crossing, R, t_dir, lines, va, ea):
     return np.array(pairs), np.array(sig)
 
 
+def _side_in_plane(n, s, d):
+    """The unit vector in the plane of normal ``n`` normal to the direction ``s`` (where a line of
+    direction ``s`` in that plane lies, seen from the plane's centre), turned to the side that the
+    rays ``d (M, 3)`` look to on average (as is when ``d`` is empty), and the length of ``n x s``
+    before it was made unit (0: ``s`` along ``n``, the vector left zero)."""
+    u = np.cross(n, s)
+    norm = float(np.linalg.norm(u))
+    u = u / norm if norm > 0 else u
+    return (-u if len(d) and np.mean(d @ u) < 0 else u), norm
+
+
 def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, sigma_cost, pixel_sigma, meeting=None):
     """Starting translation and two-view refinement of one rotation candidate. Returns
     ``(TwoViewFit or None, lines matched)``; None when fewer than two lines are matched in both
@@ -210,15 +221,11 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, s
     pts = []
     for (q, well), (s, o, d), (key, ka, _), f, k in zip(tri, rays_ab, matched, front, n_a):
         if not f:  # in its plane through c_A, on the side A's rays see, as far as the placed lines' median
-            u = np.cross(ea[key].normals[ka], s)
-            u = u / np.linalg.norm(u) if np.linalg.norm(u) > 0 else u
-            u = -u if k and np.mean(d[:k] @ u) < 0 else u
+            u, _ = _side_in_plane(ea[key].normals[ka], s, d[:k])
             q = c_a + d_med * u
             q = q - (q @ s) * s
         elif not well:  # in its plane through c_A, as far as the well-placed lines' median
-            u = np.cross(ea[key].normals[ka], s)
-            u = u / np.linalg.norm(u) if np.linalg.norm(u) > 0 else u
-            u = -u if len(d) and np.mean(d @ u) < 0 else u
+            u, _ = _side_in_plane(ea[key].normals[ka], s, d)
             q, _ = triangulate_line(s, o, d, prior=c_a + d_med * u)
         pts.append(q)
     lines = list(matched)
@@ -232,12 +239,9 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, s
         else:
             n, c, r = R.T @ eb[key].normals[kb], c_b_in_a, rays(vb, eb[key], kb)
             d = r.directions[r.valid] @ R
-        u = np.cross(n, s)
-        if np.linalg.norm(u) < 1e-9 or len(d) == 0:
+        u, norm = _side_in_plane(n, s, d)
+        if norm < 1e-9 or len(d) == 0:
             continue
-        u /= np.linalg.norm(u)
-        if np.mean(d @ u) < 0:
-            u = -u
         pts.append(c + d_med * u)
         lines.append((key, ka, kb))
     uv_a, own_a, uv_b, own_b = [], [], [], []
