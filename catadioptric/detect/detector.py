@@ -12,6 +12,7 @@ from .chains import join_chains, link_chains
 from .curves import line_covariance, merge_pieces, order_along, split_chain
 from .edges import subpixel_edges
 from .families import group_families
+from .grow import grow_lines
 from .image import DENOISE_MODES, denoise, luminance, noise_level, to_channels
 from ..linefit.planes import pixel_rays_with_jacobian
 from .region import mirror_region
@@ -34,6 +35,7 @@ DEFAULTS = {
     "min_points": 12,           # shortest piece of a chain kept as a line (points, about pixels)
     "min_pixels": 20,           # shortest line kept after merging
     "merge_angle_deg": 10.0,    # pieces whose planes are this close are tried for merging
+    "grow_gap_px": 0.0,         # lines grown along their curves over every point, across gaps this long (0: off)
     "sigma_floor": 0.3,         # pixel noise assumed at least, for the lines' covariances
     "systematic_px": 0.15,      # systematic pixel error along a line, for the lines' covariances
     "chi2_max": 9.0,            # families: a line agrees with a direction within this chi-square
@@ -56,7 +58,7 @@ def check_options(options: dict) -> dict:
         raise CatadioptricError(f"denoise: expected one of {list(DENOISE_MODES)}, got {o['denoise']!r}")
     for k in ("denoise_strength", "sigma", "max_width", "threshold", "merge_angle_deg", "sigma_floor", "chi2_max"):
         o[k] = as_scalar(o[k], k, positive=True)
-    for k in ("angle_floor_deg", "systematic_px", "concurrency_px"):
+    for k in ("angle_floor_deg", "systematic_px", "concurrency_px", "grow_gap_px"):
         o[k] = as_scalar(o[k], k)
         if o[k] < 0:
             raise CatadioptricError(f"{k}: expected a number >= 0, got {o[k]!r}")
@@ -123,6 +125,10 @@ def detect_lines(image, cam, **options) -> DetectedLines:
                               min_points=o["min_points"], source=k, polarity=c["polarity"])
         start += m
     lines = merge_pieces(pieces, threshold=o["threshold"], merge_angle_deg=o["merge_angle_deg"])
+    if o["grow_gap_px"] > 0 and lines:
+        lines = grow_lines(lines, centres.uv, centres.normal, pixel_rays_with_jacobian(cam, centres.uv),
+                           threshold=o["threshold"], max_gap=o["grow_gap_px"])
+        lines = merge_pieces(lines, threshold=o["threshold"], merge_angle_deg=o["merge_angle_deg"])
     lines = [p for p in lines if p.length >= o["min_pixels"]]
     lines.sort(key=lambda p: -p.length)
     lap("curves")
