@@ -16,6 +16,7 @@ view of a dataset (with a report). See docs/detect.md.
 | chains (linking, resampling) | `chains.py` |
 | the plane model of a line's rays, distances, covariance | `catadioptric/linefit/planes.py` (shared with `fit_interpretation_plane`) |
 | line curves (MSAC along chains, merging) | `curves.py` |
+| lines grown along their curves over every edge point (option `grow_gap_px`, off) | `grow.py` |
 | families (voting over directions) | `families.py` |
 | families of two views at once, under their rotation (the small ones one image cannot single out) | `joint_families.py` |
 | the orchestration and options | `detector.py` |
