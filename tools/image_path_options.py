@@ -17,8 +17,8 @@ configuration), evaluated as ``catadioptric validate benchmark --images`` does
 :func:`catadioptric.detect.detect_lines`; values read as Python literals). Pairs already in
 ``--out`` are kept (a rerun resumes). ``--detection-only``: the means over the views of the
 labelled pixels recovered, the lines, the family precision and recall
-(:func:`catadioptric.detect.evaluate_view`), per renderer; ``--json`` keeps every view's row. Needs the benchmark's datasets (README, "relative pose
-benchmark").
+(:func:`catadioptric.detect.evaluate_view`), per renderer; ``--json`` keeps every view's row.
+Needs the benchmark's datasets (README, "relative pose benchmark").
 """
 from __future__ import annotations
 
