@@ -90,7 +90,7 @@ def test_relative_pose_errors_name_the_flag(pair, tmp_path, capsys):
     assert "DATASET:" in capsys.readouterr().err
 
 
-def test_benchmark_at_its_ci_size(tmp_path):
+def test_benchmark_at_its_ci_size(tmp_path, capsys):
     """The benchmark of validate/relative_pose.toml at its [quick] size, rendered and evaluated for real;
     a rerun resumes (nothing rendered or evaluated again)."""
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -122,6 +122,19 @@ def test_benchmark_at_its_ci_size(tmp_path):
         assert all(q["over_10deg_unflagged"] == 0 for q in e["priors"].values())
     md = open(os.path.join(out, "report.md")).read()
     assert "## From the images alone (no labels)" in md and "labels, 1 px" in md
+    # the image path alone reads its results back, prints their summary and writes no report
+    images = {r: os.path.getmtime(os.path.join(out, "results_images", r, "p00.json")) for r in results}
+    report_time = os.path.getmtime(os.path.join(out, "report.json"))
+    capsys.readouterr()
+    assert main(["validate", "benchmark", "--spec", spec, "--quick", "--out", out, "--no-progress", "--images-only"]) == 0
+    printed = capsys.readouterr().out
+    assert images == {r: os.path.getmtime(os.path.join(out, "results_images", r, "p00.json")) for r in results}
+    assert os.path.getmtime(os.path.join(out, "report.json")) == report_time
+    for name in results:
+        e = rep["images_aggregate"][f"{name}/all"]["priors"]["60"]
+        assert (f"{name:22s} prior   60: 1 pairs, ambiguous {e['ambiguous']}, failed {e['failed']}, wrong and "
+                f"unflagged 0") in printed
+    assert "no report: run without --images-only" in printed
     # each section's own table: the draws' counts per model, the selected model per noise level
     draws_table = md.split("## Draws: failures, ambiguous answers, wrong answers")[1].split("\n## ")[0]
     assert "| configuration | model | draws | failed |" in draws_table and "| exact | 1 |" in draws_table

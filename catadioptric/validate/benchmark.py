@@ -167,6 +167,20 @@ def evaluate_benchmark(spec: dict, data: str, *, workers: int = 1, progress: boo
     return [results[k] for k in order]
 
 
+def run_images_only(spec: dict, data: str, *, workers: int = 1, progress: bool = True) -> dict:
+    """The image-only path alone: render (resuming) and evaluate it on every pair (resuming, per-pair
+    results in ``data/results_images``); no report is written (the report sets it beside the label
+    path). Returns :func:`~catadioptric.validate.benchmark_report.aggregate_images` of it, with
+    the label path's columns empty."""
+    from .benchmark_report import aggregate_images
+
+    if not spec["configs"]:
+        raise CatadioptricError("spec: expected at least one configuration")
+    render_benchmark(spec, data, workers=workers, progress=progress)
+    image_results = evaluate_benchmark(spec, data, workers=workers, progress=progress, kind="images")
+    return aggregate_images(spec, [], image_results)
+
+
 def run_benchmark(spec: dict, out: str, *, data: str | None = None, workers: int = 1, progress: bool = True,
                   command: str = "", images: bool = False) -> dict:
     """Render, evaluate and write the report into ``out``; the datasets and per-pair results go to

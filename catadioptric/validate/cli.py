@@ -80,6 +80,23 @@ def _relative_pose(args) -> int:
     return 0
 
 
+def _images_only(spec, data, args) -> int:
+    from .benchmark import run_images_only
+
+    agg = run_images_only(spec, data, workers=args.workers, progress=not args.no_progress)
+    for key, e in agg.items():
+        if not key.endswith("/all"):
+            continue
+        for prior, q in e["priors"].items():
+            f = lambda x, unit="": "-" if x is None else f"{x:.3f}{unit}"
+            print(f"{key[:-4]:22s} prior {prior:>4s}: {e['pairs']} pairs, ambiguous {q['ambiguous']}, failed "
+                  f"{q['failed']}, wrong and unflagged {q['over_10deg_unflagged']}, same families "
+                  f"{f(q['same_families'])}, matched families all right {f(q['families_right'])}, rotation "
+                  f"{f(q['rotation_deg']['median'], ' deg')}")
+    print(f"per-pair results in {os.path.join(data, 'results_images')} (no report: run without --images-only)")
+    return 0
+
+
 def _benchmark(args) -> int:
     from .._checks import CatadioptricError
     from .benchmark import run_benchmark
@@ -96,6 +113,8 @@ def _benchmark(args) -> int:
         spec = quick_spec(spec)
     out = check_out_dir(args.out)
     data = check_out_dir(args.data, "--data") if args.data else out
+    if args.images_only:
+        return _images_only(spec, data, args)
     agg = run_benchmark(spec, out, data=data, workers=args.workers, progress=not args.no_progress,
                         command=_command(args), images=args.images)
     for name, a in agg.items():
@@ -160,6 +179,8 @@ def register(sub) -> None:
     b.add_argument("--workers", type=positive_int, default=1, help="processes (default 1)")
     b.add_argument("--images", action="store_true",
                    help="also the image-only path on every pair (catadioptric relative-pose; no labels)")
+    b.add_argument("--images-only", action="store_true",
+                   help="the image-only path alone: its per-pair results and a summary printed, no report")
     b.add_argument("--no-progress", action="store_true", help="no progress bars")
     b.set_defaults(func=_benchmark, command_line=None)
     n = vs.add_parser("noise-sweep", help="synthetic noise sweeps of VPs, directions and rotation (paper Figs. 5-6)")
