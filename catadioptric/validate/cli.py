@@ -83,12 +83,14 @@ def _relative_pose(args) -> int:
 def _images_only(spec, data, args) -> int:
     from .benchmark import run_images_only
 
+    def f(x, unit=""):
+        return "-" if x is None else f"{x:.3f}{unit}"
+
     agg = run_images_only(spec, data, workers=args.workers, progress=not args.no_progress)
     for key, e in agg.items():
         if not key.endswith("/all"):
             continue
         for prior, q in e["priors"].items():
-            f = lambda x, unit="": "-" if x is None else f"{x:.3f}{unit}"
             print(f"{key[:-4]:22s} prior {prior:>4s}: {e['pairs']} pairs, ambiguous {q['ambiguous']}, failed "
                   f"{q['failed']}, wrong and unflagged {q['over_10deg_unflagged']}, same families "
                   f"{f(q['same_families'])}, matched families all right {f(q['families_right'])}, rotation "
