@@ -126,7 +126,8 @@ def test_benchmark_at_its_ci_size(tmp_path, capsys):
     images = {r: os.path.getmtime(os.path.join(out, "results_images", r, "p00.json")) for r in results}
     report_time = os.path.getmtime(os.path.join(out, "report.json"))
     capsys.readouterr()
-    assert main(["validate", "benchmark", "--spec", spec, "--quick", "--out", out, "--no-progress", "--images-only"]) == 0
+    assert main(["validate", "benchmark", "--spec", spec, "--quick", "--out", out, "--no-progress",
+                 "--images-only"]) == 0
     printed = capsys.readouterr().out
     assert images == {r: os.path.getmtime(os.path.join(out, "results_images", r, "p00.json")) for r in results}
     assert os.path.getmtime(os.path.join(out, "report.json")) == report_time

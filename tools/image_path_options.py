@@ -27,6 +27,7 @@ import ast
 import json
 import os
 from multiprocessing import get_context
+from pathlib import Path
 
 from catadioptric._io import atomic_write_json, jsonable
 from catadioptric.validate.benchmark import dataset_folder
@@ -125,7 +126,7 @@ def main() -> None:
         os.makedirs(os.path.join(args.out, name), exist_ok=True)
         for pair in pairs_of(spec, config)[: args.pairs]:
             path = os.path.join(args.out, name, f"p{pair.index:02d}.json")
-            if os.path.exists(path) and json.load(open(path)).get("detect_options") == options:
+            if os.path.exists(path) and json.loads(Path(path).read_text()).get("detect_options") == options:
                 continue
             todo.append((spec, args.data, name, pair, options, path))
     print(f"{len(todo)} pairs to evaluate with detector options {options}", flush=True)

@@ -13,7 +13,7 @@ dropped; the line stays as it was if it would lose points or its rms grow by mor
 threshold. A line that growing made a part of a longer one (most of its points within 0.7 px of
 the longer line's, the planes within 5 degrees) is then dropped.
 
-Measured on the benchmark's views: docs/detect.md, "Growing lines along their curves".
+Measured on the benchmark's views: docs/detect.md, step 7, "Growing".
 """
 from __future__ import annotations
 
@@ -21,16 +21,12 @@ import numpy as np
 
 from .._checks import CatadioptricError
 from ..linefit.planes import Rays, plane_distances, refine_plane
-from .curves import LinePiece
+from .curves import LinePiece, _concat_rays
 
 __all__ = ["grow_lines"]
 
 _SAME_PX = 0.7  # a point this close to a line's own point is that point
 _SAME_DEG = 5.0
-
-
-def _concat(parts) -> Rays:
-    return Rays(*(np.concatenate([getattr(p, f) for p in parts]) for f in ("uv", "d", "Jd", "ok")))
 
 
 def _grow_one(p: LinePiece, uv: np.ndarray, normal: np.ndarray, rays: Rays, threshold: float, max_gap: float,
@@ -47,7 +43,7 @@ def _grow_one(p: LinePiece, uv: np.ndarray, normal: np.ndarray, rays: Rays, thre
     if len(cand) == 0:
         return p
     all_uv = np.concatenate([p.uv, uv[cand]])
-    all_rays = _concat([p.rays, rays.take(cand)])
+    all_rays = _concat_rays([p.rays, rays.take(cand)])
     own = np.r_[np.ones(p.length, bool), np.zeros(len(cand), bool)]
     e1 = p.rays.d[0] - (p.rays.d[0] @ n) * n
     e1 /= max(np.linalg.norm(e1), 1e-300)
@@ -82,7 +78,8 @@ def grow_lines(lines: list[LinePiece], uv: np.ndarray, normal: np.ndarray, rays:
     uv = np.asarray(uv, float).reshape(-1, 2)
     normal = np.asarray(normal, float).reshape(-1, 2)
     if len(uv) != len(normal) or len(uv) != len(rays.d):
-        raise CatadioptricError(f"uv, normal, rays: expected one row per point, got {len(uv)}, {len(normal)}, {len(rays.d)}")
+        raise CatadioptricError(f"uv, normal, rays: expected one row per point, got {len(uv)}, {len(normal)}, "
+                                f"{len(rays.d)}")
     cos_turn = float(np.cos(np.radians(max_turn_deg)))
     grown = sorted((_grow_one(p, uv, normal, rays, threshold, max_gap, cos_turn) for p in lines),
                    key=lambda q: -q.length)
