@@ -3,6 +3,7 @@ it misses look like (docs/relative_pose.md, "Families only both images show").
 
     .venv/bin/python tools/image_results_compare.py misses RESULTS
     .venv/bin/python tools/image_results_compare.py compare BASE NEW [--prior 60]
+    .venv/bin/python tools/image_results_compare.py margins RESULTS [--prior 60] [--bars 20,33,60]
 
 ``RESULTS``, ``BASE``, ``NEW``: ``results_images`` folders of ``catadioptric validate benchmark
 --images`` (one JSON per pair; a run kept before a code change is a copy of that folder; the
@@ -12,8 +13,12 @@ benchmark computes a pair again when the package's code has changed, ``benchmark
 with the prior does not match right, by the number of labelled lines in the sparser view.
 ``compare``: per prior, the pairs with the same families, all matched families right, ambiguous
 and wrong unflagged in each run; the median rotation error of the answered, unambiguous pairs per
-configuration in each; then the pairs where ``NEW`` found families in both views at
-once, with their rotation errors, families all right and recall before and after. Needs the
+configuration in each; over every pair answered in both (the best candidate, ambiguous or not)
+the median rotation error, in how many pairs it is lower and the Wilcoxon signed-rank p; then
+the pairs where ``NEW`` found families in both views at once, with their rotation errors,
+families all right and recall before and after. ``margins``: the ambiguous answers more than 1
+degree off with their margins, and for each bar on the margin (``decisive_matching``) the pairs
+it would answer, how many of those are more than 10 degrees off and the largest error. Needs the
 benchmark's datasets for ``misses`` (render/out/relative_pose_benchmark/datasets).
 """
 from __future__ import annotations
@@ -83,6 +88,17 @@ def compare(base_dir, new_dir, prior):
                  for r in [_run(runs[k], prior)] if r is not None and "error" not in r and not r["ambiguous"]]
             med.append(f"{np.median(e):.3f} ({len(e)})" if e else "- (0)")
         print(f"  {cfg}: {med[0]} -> {med[1]}")
+    both = [(b["rotation_error_deg"], n["rotation_error_deg"]) for k in keys
+            for b, n in [(_run(base[k], prior), _run(new[k], prior))]
+            if b is not None and n is not None and "error" not in b and "error" not in n]
+    if both:
+        from scipy.stats import wilcoxon
+
+        x, y = np.array(both).T
+        p = wilcoxon(x, y).pvalue if np.any(x != y) else 1.0
+        print(f"prior {prior}: every pair answered in both ({len(both)}, best candidate): median rotation error "
+              f"{np.median(x):.3f} -> {np.median(y):.3f} deg, lower in {int(np.sum(y < x))}, higher in "
+              f"{int(np.sum(y > x))}, Wilcoxon p = {p:.2g}")
     rows, better = [], 0
     for k in keys:
         b, n = _run(base[k], prior), _run(new[k], prior)
@@ -100,6 +116,21 @@ def compare(base_dir, new_dir, prior):
               f"{sum(n['families_recall'] for _, _, n in rows):.1f}")
 
 
+def margins(folder, prior, bars):
+    rows = [(r["margin"] if r["margin"] is not None else float("inf"), r["rotation_error_deg"], r["ambiguous"], k)
+            for k, res in _load(folder).items() for r in [_run(res, prior)] if r is not None and "error" not in r]
+    print(f"prior {prior}: {len(rows)} pairs answered, {sum(a for _, _, a, _ in rows)} ambiguous; those more than "
+          "1 degree off (margin, error):")
+    for m, e, a, k in sorted(rows):
+        if a and e > 1.0:
+            print(f"  {k}: {m:.1f}, {e:.2f} deg")
+    for bar in bars:
+        ans = [(m, e) for m, e, _, _ in rows if m >= bar]
+        worst = max((e for _, e in ans), default=float("nan"))
+        print(f"bar {bar:g}: {len(ans)} answered, {sum(e > 10 for _, e in ans)} more than 10 deg off, "
+              f"the largest error {worst:.2f} deg")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -110,8 +141,14 @@ def main():
     c.add_argument("base")
     c.add_argument("new")
     c.add_argument("--prior", type=float, default=60.0)
+    g = sub.add_parser("margins")
+    g.add_argument("results")
+    g.add_argument("--prior", type=float, default=60.0)
+    g.add_argument("--bars", default="20,33,60", help="comma-separated bars on the margin")
     a = ap.parse_args()
-    if a.cmd == "misses":
+    if a.cmd == "margins":
+        margins(a.results, a.prior, [float(x) for x in a.bars.split(",")])
+    elif a.cmd == "misses":
         misses(a.results, a.prior)
     else:
         compare(a.base, a.new, a.prior)
