@@ -45,7 +45,7 @@ def _family_map(pose) -> dict:
 
 def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_options: dict | None = None,
                               min_pixels: int = 30, max_rotation_deg: float | None = None, decisive: float = 25.0,
-                              decisive_matching: float = 60.0, seed: int = 0, joint: bool = True) -> ImagePairPose:
+                              decisive_matching: float | None = None, seed: int = 0, joint: bool = True) -> ImagePairPose:
     """The relative pose of two views from their images alone.
 
     ``image_a``, ``image_b``: arrays (RGB or grey; uint8, uint16 or float in [0, 1]) taken by
@@ -79,7 +79,7 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
 
 
 def pose_from_detections(det_a, det_b, *, min_pixels: int = 30, max_rotation_deg: float | None = None,
-                         decisive: float = 25.0, decisive_matching: float = 60.0, seed: int = 0,
+                         decisive: float = 25.0, decisive_matching: float | None = None, seed: int = 0,
                          joint: bool = True) -> ImagePairPose:
     """The relative pose from two detections (:class:`catadioptric.detect.DetectedLines`); the
     options are those of :func:`relative_pose_from_images`.
@@ -266,9 +266,10 @@ def register(sub) -> None:
     p.add_argument("--min-pixels", type=positive_int, default=30, help="shortest line used, pixels (default 30)")
     p.add_argument("--decisive", type=positive_float, default=25.0,
                    help="margin (chi-square units) the best answer needs over the next (default 25)")
-    p.add_argument("--decisive-matching", type=positive_float, default=60.0,
+    p.add_argument("--decisive-matching", type=positive_float, default=None,
                    help="margin the best matching of the two images' families and lines needs over the next "
-                        "different one (default 60: chance agreements of the matching, docs/relative_pose.md)")
+                        "different one (default: 35 when at most 24 family assignments are tried, 60 beyond; "
+                        "chance agreements of the matching, docs/relative_pose.md)")
     p.add_argument("--no-joint-families", action="store_true",
                    help="do not look for the families that only both images together show (two lines in each; "
                         "docs/relative_pose.md)")

@@ -9,6 +9,8 @@ options and with those given, side by side.
         render/out/relative_pose_benchmark/results_images /tmp/grow3
     .venv/bin/python tools/image_path_options.py all --pairs 4 --detect grow_gap_px=3 --detection-only \\
         [--json ROWS]
+    .venv/bin/python tools/image_path_options.py all --pairs 20 --renderer mitsuba --detect denoise=none \\
+        --data DATA_HIGH --out /tmp/high     # DATA_HIGH: tools/render_quality.py's datasets
 
 Each pair is the benchmark's (validate/relative_pose.toml, the first ``--pairs`` of each
 configuration), evaluated as ``catadioptric validate benchmark --images`` does
@@ -93,6 +95,8 @@ def main() -> None:
     ap.add_argument("--json", help="with --detection-only: write every view's row here")
     ap.add_argument("--spec", default="validate/relative_pose.toml")
     ap.add_argument("--data", default="render/out/relative_pose_benchmark")
+    ap.add_argument("--renderer", choices=("mitsuba", "povray"),
+                    help="only the pairs of this renderer (among the first --pairs)")
     ap.add_argument("--workers", type=int, default=1)
     args = ap.parse_args()
     options = {}
@@ -110,9 +114,14 @@ def main() -> None:
     for name in configs:
         if name not in names:
             ap.error(f"configs: expected 'all' or some of {names}, got {name!r}")
+
+    def pairs(name):
+        return [p for p in pairs_of(spec, spec["configs"][names.index(name)])[: args.pairs]
+                if args.renderer in (None, p.renderer)]
+
     if args.detection_only:
         todo = [(args.data, name, pair, side, options) for name in configs
-                for pair in pairs_of(spec, spec["configs"][names.index(name)])[: args.pairs] for side in "AB"]
+                for pair in pairs(name) for side in "AB"]
         rows = _run(_detection, todo, args.workers)
         if args.json:
             atomic_write_json(args.json, rows)
@@ -122,9 +131,8 @@ def main() -> None:
         ap.error("--out: required unless --detection-only")
     todo = []
     for name in configs:
-        config = spec["configs"][names.index(name)]
         os.makedirs(os.path.join(args.out, name), exist_ok=True)
-        for pair in pairs_of(spec, config)[: args.pairs]:
+        for pair in pairs(name):
             path = os.path.join(args.out, name, f"p{pair.index:02d}.json")
             if os.path.exists(path) and json.loads(Path(path).read_text()).get("detect_options") == options:
                 continue

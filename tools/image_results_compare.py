@@ -3,7 +3,7 @@ it misses look like (docs/relative_pose.md, "Families only both images show").
 
     .venv/bin/python tools/image_results_compare.py misses RESULTS
     .venv/bin/python tools/image_results_compare.py compare BASE NEW [--prior 60]
-    .venv/bin/python tools/image_results_compare.py margins RESULTS [--prior 60] [--bars 20,33,60]
+    .venv/bin/python tools/image_results_compare.py margins RESULTS [--prior 60|none] [--bars 20,33,60,rule]
 
 ``RESULTS``, ``BASE``, ``NEW``: ``results_images`` folders of ``catadioptric validate benchmark
 --images`` (one JSON per pair; a run kept before a code change is a copy of that folder; the
@@ -117,18 +117,30 @@ def compare(base_dir, new_dir, prior):
 
 
 def margins(folder, prior, bars):
-    rows = [(r["margin"] if r["margin"] is not None else float("inf"), r["rotation_error_deg"], r["ambiguous"], k)
+    """``bars``: numbers, or ``rule`` for the default bar of the number of family assignments tried
+    (:func:`catadioptric.pose.matching_bar`). What a bar would answer is read from the runs as they
+    are: an answer it makes decisive would also go through the joint families' step, which is not
+    rerun here."""
+    from catadioptric.pose import matching_bar
+
+    rows = [(r["margin"] if r["margin"] is not None else float("inf"), r["rotation_error_deg"], r["ambiguous"], k,
+             r["candidates"])
             for k, res in _load(folder).items() for r in [_run(res, prior)] if r is not None and "error" not in r]
-    print(f"prior {prior}: {len(rows)} pairs answered, {sum(a for _, _, a, _ in rows)} ambiguous; those more than "
-          "1 degree off (margin, error):")
-    for m, e, a, k in sorted(rows):
+    print(f"prior {prior}: {len(rows)} pairs answered, {sum(a for _, _, a, _, _ in rows)} ambiguous; those more "
+          "than 1 degree off (margin, error, family assignments tried):")
+    for m, e, a, k, n in sorted(rows):
         if a and e > 1.0:
-            print(f"  {k}: {m:.1f}, {e:.2f} deg")
+            print(f"  {k}: {m:.1f}, {e:.2f} deg, {n}")
     for bar in bars:
-        ans = [(m, e) for m, e, _, _ in rows if m >= bar]
+        ans = [(m, e) for m, e, _, _, n in rows if m >= (matching_bar(n) if bar == "rule" else bar)]
         worst = max((e for _, e in ans), default=float("nan"))
-        print(f"bar {bar:g}: {len(ans)} answered, {sum(e > 10 for _, e in ans)} more than 10 deg off, "
+        print(f"bar {bar}: {len(ans)} answered, {sum(e > 10 for _, e in ans)} more than 10 deg off, "
               f"the largest error {worst:.2f} deg")
+
+
+def _prior(text):
+    """``--prior``: a number of degrees, or ``none`` for the runs without a prior."""
+    return None if text.lower() == "none" else float(text)
 
 
 def main():
@@ -136,18 +148,19 @@ def main():
     sub = ap.add_subparsers(dest="cmd", required=True)
     m = sub.add_parser("misses")
     m.add_argument("results")
-    m.add_argument("--prior", type=float, default=60.0)
+    m.add_argument("--prior", type=_prior, default=60.0, help="degrees, or none")
     c = sub.add_parser("compare")
     c.add_argument("base")
     c.add_argument("new")
-    c.add_argument("--prior", type=float, default=60.0)
+    c.add_argument("--prior", type=_prior, default=60.0, help="degrees, or none")
     g = sub.add_parser("margins")
     g.add_argument("results")
-    g.add_argument("--prior", type=float, default=60.0)
-    g.add_argument("--bars", default="20,33,60", help="comma-separated bars on the margin")
+    g.add_argument("--prior", type=_prior, default=60.0, help="degrees, or none")
+    g.add_argument("--bars", default="20,33,60,rule",
+                   help="comma-separated bars on the margin; rule: the default bar of the assignments tried")
     a = ap.parse_args()
     if a.cmd == "margins":
-        margins(a.results, a.prior, [float(x) for x in a.bars.split(",")])
+        margins(a.results, a.prior, [x if x == "rule" else float(x) for x in a.bars.split(",")])
     elif a.cmd == "misses":
         misses(a.results, a.prior)
     else:

@@ -18,6 +18,7 @@ between two views ``x_B = R x_A + t`` (mirror frames). Lines are Pluecker ``(s, 
 | `family_matches` | `matching.py` | each view's families (unmatched) | the assignments of B's families to A's a rotation allows |
 | `match_lines` | `matching.py` | a family assignment, each view's lines (unmatched) | lines matched where they meet, direction between the centres |
 | `relative_pose` | `relative.py` | the lines each view sees (matched by id, or not) | R, t, covariance, candidates, ambiguity verdict |
+| `matching_bar` | `relative.py` | the number of family assignments tried without labels | the margin an answer needs |
 | `choose_model` | `select.py` | the exact and the central answer of one pair | the rotation whose covariance promises less |
 
 See docs/relative_pose.md.
@@ -29,7 +30,7 @@ from .central import CrossingFit, translation_direction_from_crossings
 from .epipolar import EpipolarFit, refine_with_crossings
 from .families import FamilyEstimate, ViewLines, fit_view_families
 from .matching import FamilyMatch, LineMatch, family_matches, match_lines
-from .relative import Candidate, RelativePose, relative_pose
+from .relative import MATCHING_BARS, Candidate, RelativePose, matching_bar, relative_pose
 from .scale import refine_far_or_free
 from .select import ModelChoice, choose_model
 from .rotation import DirectionRotation, refine_rotation, rotation_angle_deg, rotation_from_directions
@@ -42,5 +43,6 @@ __all__ = [
     "refine_two_view", "TwoViewFit", "refine_far_or_free", "translation_direction_from_crossings", "CrossingFit",
     "refine_with_crossings", "EpipolarFit",
     "ViewLines", "FamilyEstimate", "fit_view_families", "relative_pose", "RelativePose", "Candidate",
+    "matching_bar", "MATCHING_BARS",
     "family_matches", "FamilyMatch", "match_lines", "LineMatch", "choose_model", "ModelChoice",
 ]

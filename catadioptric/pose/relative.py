@@ -38,11 +38,17 @@ from .scale import refine_far_or_free, scale_by_search
 from .signs import sign_candidates
 from .translation import ray_depths, triangulate_line
 
-__all__ = ["Candidate", "RelativePose", "relative_pose"]
+__all__ = ["Candidate", "RelativePose", "relative_pose", "matching_bar", "MATCHING_BARS"]
 
 _FITS = 4.0  # a refinement fits the pixels when its robust cost is at most this per pixel (about 2 sigma)
 _SAME_DEG = 5.0  # two answers whose rotations are closer than this are one answer (the ambiguities are
 # discrete: half-turns, permutations of the families)
+
+#: The margin an answer matched without labels needs over the next different answer when
+#: ``decisive_matching`` is None (:func:`matching_bar`): ``(most assignments, bar)`` pairs, the first
+#: that holds. The matching's cost counts meeting points that agree by chance, and the largest chance
+#: margin grows with the number of rival assignments (docs/relative_pose.md, "The bar on the matching").
+MATCHING_BARS = ((24, 35.0), (None, 60.0))
 
 
 @dataclass
@@ -263,7 +269,7 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, s
 def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = None, seed=0, f_scale: float = 1.0,
                   pixel_sigma: float | None = None, decisive: float = 25.0, max_pixels: int | None = 40,
                   min_families: int = 2, max_rotation_deg: float | None = None,
-                  model_error_px: float = 0.0, decisive_matching: float = 60.0) -> RelativePose:
+                  model_error_px: float = 0.0, decisive_matching: float | None = None) -> RelativePose:
     """The relative pose ``x_B = R x_A + t`` of two views from the lines they see.
 
     ``view_a``, ``view_b``: :class:`ViewLines`. ``ends``: ``{family: (hint_a, hint_b)}``, for
@@ -281,9 +287,11 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
     not fit exact pixels is not trusted beyond its own precision. ``decisive_matching``: when
     nothing is matched across the views (no ``line_id``: each image's own detections), the margin
     the best assignment of families and lines needs over the next different answer (at least
-    ``decisive``): the matching's cost counts meeting points that agree by chance, and on the
-    relative-pose benchmark wrong assignments won by 25.6 to 51.1 chi-square units
-    (docs/relative_pose.md, "Without labels"). Raises :class:`CatadioptricError` naming the
+    ``decisive``; None: :func:`matching_bar` of the number of family assignments tried, 35 for at
+    most 24 and 60 beyond): the matching's cost counts meeting points that agree by chance, and
+    the more rival assignments, the larger the chance margin: on the relative-pose benchmark and on
+    100 held-out pairs, wrong answers won by up to 32.4 units among at most 24 assignments and by up
+    to 49.6 among more (docs/relative_pose.md, "The bar on the matching"). Raises :class:`CatadioptricError` naming the
     cause when fewer than ``min_families`` families are seen in both views, or when no candidate
     is within ``max_rotation_deg``.
     """
@@ -293,6 +301,18 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
     with threadpool_limits(1):
         return _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families,
                               max_rotation_deg, model_error_px, decisive_matching)
+
+
+def matching_bar(n_assignments: int) -> float:
+    """The margin (chi-square units) that an answer matched without labels needs over the next
+    different answer, when ``n_assignments`` family assignments were tried (:data:`MATCHING_BARS`:
+    35 for at most 24, 60 beyond: a Manhattan scene without a motion prior gives up to 48)."""
+    if isinstance(n_assignments, bool) or not isinstance(n_assignments, (int, np.integer)) or n_assignments < 1:
+        raise CatadioptricError(f"n_assignments: expected a positive integer, got {n_assignments!r}")
+    for most, bar in MATCHING_BARS:
+        if most is None or n_assignments <= most:
+            return bar
+    raise AssertionError("MATCHING_BARS ends with (None, bar)")
 
 
 def _within_prior(cands, max_rotation_deg, what):
@@ -308,12 +328,13 @@ def _within_prior(cands, max_rotation_deg, what):
 
 
 def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families,
-                   max_rotation_deg=None, model_error_px=0.0, decisive_matching=60.0):
+                   max_rotation_deg=None, model_error_px=0.0, decisive_matching=None):
     if not isinstance(view_a, ViewLines) or not isinstance(view_b, ViewLines):
         raise CatadioptricError(f"view_a, view_b: expected ViewLines, got {type(view_a).__name__} and "
                                 f"{type(view_b).__name__}")
     decisive = as_scalar(decisive, "decisive", positive=True)
-    decisive_matching = as_scalar(decisive_matching, "decisive_matching", positive=True)
+    if decisive_matching is not None:
+        decisive_matching = as_scalar(decisive_matching, "decisive_matching", positive=True)
     f_scale = as_scalar(f_scale, "f_scale", positive=True)
     if pixel_sigma is not None:
         pixel_sigma = as_scalar(pixel_sigma, "pixel_sigma", positive=True)
@@ -445,7 +466,7 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
 
 
 def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families, max_rotation_deg,
-               model_error_px=0.0, decisive_matching=60.0):
+               model_error_px=0.0, decisive_matching=None):
     """Relative pose when nothing is matched across the views (lines from each image alone): the
     family assignments a rotation allows (:func:`~catadioptric.pose.matching.family_matches`), for
     each the lines matched by where they meet (:func:`~catadioptric.pose.matching.match_lines`),
@@ -492,11 +513,13 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
                                 None if lm.t is None else lm.t, score, m.cost, None, lm) for score, m, lm in scored]
     res.candidates[0] = Candidate(res.candidates[0].signs, res.R, res.t, best_score, best.cost, res.cov, lines)
     res.margin = float(margin)
-    res.ambiguous = bool(margin < max(decisive, decisive_matching))
+    bar = max(decisive, matching_bar(len(scored)) if decisive_matching is None else decisive_matching)
+    res.ambiguous = bool(margin < bar)
     prior = "" if max_rotation_deg is None else f" (within the prior max_rotation_deg = {max_rotation_deg})"
     res.notes = [(f"families and lines matched without labels: {len(best.mapping)} families, {len(lines.pairs)} "
                   f"lines ({lines.n_inliers} of {lines.n_crossings} meeting points of A found in B); "
-                  f"{len(scored)} family assignments tried{prior}"), *res.notes]
+                  f"{len(scored)} family assignments tried{prior}; margin {margin:.1f} over the next answer "
+                  f"against a bar of {bar:g}"), *res.notes]
     res.notes += [f"family {k} of A not used: {v}" for k, v in fail_a.items()]
     res.notes += [f"family {k} of B not used: {v}" for k, v in fail_b.items()]
     return res
