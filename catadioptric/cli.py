@@ -4,6 +4,7 @@ checked flags) is in :mod:`catadioptric.cliargs`."""
 from __future__ import annotations
 
 import importlib
+import shlex
 import sys
 
 from .cliargs import Parser, print_error
@@ -34,6 +35,9 @@ def build_parser() -> Parser:
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if argv is not None and getattr(args, "command_line", "") is None:
+        # reports give the command that made them: the arguments given, not the process's own
+        args.command_line = "catadioptric " + " ".join(shlex.quote(str(a)) for a in argv)
     try:
         return int(args.func(args) or 0)
     except Exception as exc:  # bad input gets a one-line message; real bugs keep their traceback

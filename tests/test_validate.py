@@ -122,7 +122,8 @@ def test_benchmark_at_its_ci_size(tmp_path, capsys):
         assert all(q["over_10deg_unflagged"] == 0 for q in e["priors"].values())
     md = open(os.path.join(out, "report.md")).read()
     assert "## From the images alone (no labels)" in md and "labels, 1 px" in md
-    # the image path alone reads its results back, prints their summary and writes no report
+    # the image path alone reads its results back, prints their summary and writes its own report
+    # beside the full one, which it leaves alone
     images = {r: os.path.getmtime(os.path.join(out, "results_images", r, "p00.json")) for r in results}
     report_time = os.path.getmtime(os.path.join(out, "report.json"))
     capsys.readouterr()
@@ -135,7 +136,15 @@ def test_benchmark_at_its_ci_size(tmp_path, capsys):
         e = rep["images_aggregate"][f"{name}/all"]["priors"]["60"]
         assert (f"{name:22s} prior   60: 1 pairs, ambiguous {e['ambiguous']}, failed {e['failed']}, wrong and "
                 f"unflagged 0") in printed
-    assert "no report: run without --images-only" in printed
+    assert f"wrote {os.path.join(out, 'images.md')}" in printed
+    alone = open(os.path.join(out, "images.md")).read()
+    assert "## From the images alone (no labels)" in alone and "labels, 1 px" not in alone
+    assert "Reproduce: `catadioptric validate benchmark" in alone and "--images-only" in alone
+    def images_part(agg):
+        return {k: {f: v for f, v in e.items() if f != "labels_rotation_deg"} for k, e in agg.items()}
+
+    assert images_part(json.load(open(os.path.join(out, "images.json")))["images_aggregate"]) == images_part(
+        rep["images_aggregate"])
     # each section's own table: the draws' counts per model, the selected model per noise level
     draws_table = md.split("## Draws: failures, ambiguous answers, wrong answers")[1].split("\n## ")[0]
     assert "| configuration | model | draws | failed |" in draws_table and "| exact | 1 |" in draws_table

@@ -167,18 +167,30 @@ def evaluate_benchmark(spec: dict, data: str, *, workers: int = 1, progress: boo
     return [results[k] for k in order]
 
 
-def run_images_only(spec: dict, data: str, *, workers: int = 1, progress: bool = True) -> dict:
+def run_images_only(spec: dict, data: str, *, out: str | None = None, workers: int = 1, progress: bool = True,
+                    command: str = "") -> dict:
     """The image-only path alone: render (resuming) and evaluate it on every pair (resuming, per-pair
-    results in ``data/results_images``); no report is written (the report sets it beside the label
-    path). Returns :func:`~catadioptric.validate.benchmark_report.aggregate_images` of it, with
-    the label path's columns empty."""
-    from .benchmark_report import aggregate_images
+    results in ``data/results_images``); with ``out``, its own report there
+    (:func:`~catadioptric.validate.benchmark_report.write_images_report`: ``images.md``; the full
+    report sets it beside the label path). Returns
+    :func:`~catadioptric.validate.benchmark_report.aggregate_images` of it, with the label path's
+    columns empty."""
+    from .benchmark_report import aggregate_images, write_images_report
 
     if not spec["configs"]:
         raise CatadioptricError("spec: expected at least one configuration")
     render_benchmark(spec, data, workers=workers, progress=progress)
+    t0 = time.perf_counter()
     image_results = evaluate_benchmark(spec, data, workers=workers, progress=progress, kind="images")
-    return aggregate_images(spec, [], image_results)
+    if out is None:
+        return aggregate_images(spec, [], image_results)
+    return write_images_report(spec, image_results, out, command=command, overlays=_overlays(spec, data),
+                               timing={"images_seconds": time.perf_counter() - t0})
+
+
+def _overlays(spec, data) -> dict:
+    """The overlay of the first pair of each configuration."""
+    return {c["name"]: os.path.join(data, _FOLDER["images"], c["name"], "p00.png") for c in spec["configs"]}
 
 
 def run_benchmark(spec: dict, out: str, *, data: str | None = None, workers: int = 1, progress: bool = True,
@@ -198,9 +210,6 @@ def run_benchmark(spec: dict, out: str, *, data: str | None = None, workers: int
     t2 = time.perf_counter()
     image_results = evaluate_benchmark(spec, data, workers=workers, progress=progress, kind="images") if images else None
     t3 = time.perf_counter()
-    overlays = None
-    if images:  # the first pair of each configuration
-        overlays = {c["name"]: os.path.join(data, _FOLDER["images"], c["name"], "p00.png") for c in spec["configs"]}
     return write_benchmark_report(spec, results, out, command=command, image_results=image_results,
-                                  overlays=overlays, timing={"render_seconds": t1 - t0, "evaluate_seconds": t2 - t1,
+                                  overlays=_overlays(spec, data) if images else None, timing={"render_seconds": t1 - t0, "evaluate_seconds": t2 - t1,
                                                              "images_seconds": t3 - t2})

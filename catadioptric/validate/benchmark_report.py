@@ -10,8 +10,8 @@ import numpy as np
 from .._io import atomic_write_bytes, atomic_write_json, jsonable
 from .report import md_table
 
-__all__ = ["aggregate", "aggregate_images", "write_benchmark_report", "benchmark_markdown", "images_markdown",
-           "median_interval"]
+__all__ = ["aggregate", "aggregate_images", "write_benchmark_report", "write_images_report", "benchmark_markdown",
+           "images_markdown", "median_interval"]
 
 PAPER_FROBENIUS_2PX = 0.0446  # Miraldo, Eiras, Ramalingam, CVPR 2018, Sec. 5.4 (one POV-Ray pair, 2 px)
 
@@ -331,8 +331,9 @@ def aggregate_images(spec: dict, results: list, image_results: list) -> dict:
     return out
 
 
-def images_markdown(spec: dict, agg_im: dict, overlays: dict) -> str:
-    """The report's section on the image-only path."""
+def images_markdown(spec: dict, agg_im: dict, overlays: dict, *, labels: bool = True) -> str:
+    """The report's section on the image-only path (``labels``: with the label path's rotation error
+    on the same pairs beside it)."""
     priors = [_prior_key(p) for p in (None, *spec["images"]["max_rotation_deg"])]
     noises = spec["noise_px"]
     L = ["## From the images alone (no labels)", "",
@@ -369,11 +370,12 @@ def images_markdown(spec: dict, agg_im: dict, overlays: dict) -> str:
                     "matched families all right",
                     "same families (directions too)", "all right (directions too)", "rotation (deg)",
                     "translation (m)", "translation direction (deg)"], rows), ""]
-    rows = [[k, _fmt(e["priors"][priors[-1]]["rotation_deg"])] + [_fmt(e["labels_rotation_deg"][str(n)])
-                                                                  for n in noises] for k, e in agg_im.items()]
-    L += ["### Next to the label path on the same pairs (rotation error, degrees)", "",
-          md_table(["configuration / renderer", f"images (prior {priors[-1]})"]
-                   + [f"labels, {n:g} px" for n in noises], rows), ""]
+    if labels:
+        rows = [[k, _fmt(e["priors"][priors[-1]]["rotation_deg"])] + [_fmt(e["labels_rotation_deg"][str(n)])
+                                                                      for n in noises] for k, e in agg_im.items()]
+        L += ["### Next to the label path on the same pairs (rotation error, degrees)", "",
+              md_table(["configuration / renderer", f"images (prior {priors[-1]})"]
+                       + [f"labels, {n:g} px" for n in noises], rows), ""]
     if overlays:
         L += ["### Overlays (first pair of each configuration)", "",
               "Detected lines coloured by family; B's families in the colour of the family of A they were matched "
@@ -427,6 +429,47 @@ def _plot(agg, spec, field, ylabel, models, fname_title):
     return buf.getvalue()
 
 
+def _copy_overlays(overlays, out) -> dict:
+    shown = {}
+    for name, path in (overlays or {}).items():
+        if os.path.isfile(path):
+            with open(path, "rb") as f:
+                atomic_write_bytes(os.path.join(out, f"images_{name}.png"), f.read())
+            shown[name] = path
+    return shown
+
+
+def _relative_source(spec: dict) -> dict:
+    """A committed report names the spec relative to where it was run, not the machine."""
+    if spec.get("source"):
+        rel = os.path.relpath(spec["source"])
+        spec = spec | {"source": rel if not rel.startswith("..") else os.path.basename(rel)}
+    return spec
+
+
+def write_images_report(spec: dict, image_results: list, out: str, *, command: str, timing: dict,
+                        overlays: dict | None = None) -> dict:
+    """The image-only path's report alone (``catadioptric validate benchmark --images-only``):
+    ``images.md``, ``images.json`` (spec, aggregate, every pair's result) and ``images_<config>.png``
+    from ``overlays`` (``{config: PNG path}``) into ``out``; the label path's figures are not
+    there (its report, ``report.md``, sets both side by side). Returns the aggregate."""
+    agg_im = aggregate_images(spec, [], image_results)
+    os.makedirs(out, exist_ok=True)
+    spec = _relative_source(spec)
+    shown = _copy_overlays(overlays, out)
+    md = "\n".join([f"# Relative-pose benchmark `{spec['name']}`: the images alone", "",
+                     f"Spec: `{spec.get('source', spec['name'])}` (seed {spec['seed']}, {spec['pairs']} pairs per "
+                     f"configuration, {spec['resolution']}, quality `{spec['quality']}`). Per-pair results computed "
+                     f"in {timing.get('images_seconds', float('nan')):.0f} s (pairs already computed with the same "
+                     "code are read back).", "", f"Reproduce: `{command}`", "",
+                     images_markdown(spec, agg_im, shown, labels=False)])
+    atomic_write_bytes(os.path.join(out, "images.md"), md.encode())
+    atomic_write_json(os.path.join(out, "images.json"),
+                      jsonable({"spec": spec, "command": command, "timing": timing, "images_aggregate": agg_im,
+                                "images_pairs": image_results}), indent=None)
+    return agg_im
+
+
 def write_benchmark_report(spec: dict, results: list, out: str, *, command: str, timing: dict,
                            image_results: list | None = None, overlays: dict | None = None) -> dict:
     """Write ``report.json`` (spec, aggregates, every pair's draws), ``report.md``, ``rotation.png``,
@@ -434,20 +477,12 @@ def write_benchmark_report(spec: dict, results: list, out: str, *, command: str,
     ``images_<config>.png`` from ``overlays``: ``{config: PNG path}``); returns the aggregate."""
     agg = aggregate(spec, results)
     os.makedirs(out, exist_ok=True)
-    if spec.get("source"):  # a committed report names the spec relative to where it was run, not the machine
-        rel = os.path.relpath(spec["source"])
-        spec = spec | {"source": rel if not rel.startswith("..") else os.path.basename(rel)}
+    spec = _relative_source(spec)
     md = benchmark_markdown(spec, agg, results, command, timing)
     agg_im = None
     if image_results is not None:
         agg_im = aggregate_images(spec, results, image_results)
-        shown = {}
-        for name, path in (overlays or {}).items():
-            if os.path.isfile(path):
-                with open(path, "rb") as f:
-                    atomic_write_bytes(os.path.join(out, f"images_{name}.png"), f.read())
-                shown[name] = path
-        md += "\n" + images_markdown(spec, agg_im, shown)
+        md += "\n" + images_markdown(spec, agg_im, _copy_overlays(overlays, out))
     try:
         atomic_write_bytes(os.path.join(out, "rotation.png"),
                            _plot(agg, spec, "rotation_deg", "rotation error (deg)", ("exact", "central", "selected"),

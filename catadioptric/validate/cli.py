@@ -80,13 +80,14 @@ def _relative_pose(args) -> int:
     return 0
 
 
-def _images_only(spec, data, args) -> int:
+def _images_only(spec, data, out, args) -> int:
     from .benchmark import run_images_only
 
     def f(x, unit=""):
         return "-" if x is None else f"{x:.3f}{unit}"
 
-    agg = run_images_only(spec, data, workers=args.workers, progress=not args.no_progress)
+    agg = run_images_only(spec, data, out=out, workers=args.workers, progress=not args.no_progress,
+                          command=_command(args))
     for key, e in agg.items():
         if not key.endswith("/all"):
             continue
@@ -95,7 +96,8 @@ def _images_only(spec, data, args) -> int:
                   f"{q['failed']}, wrong and unflagged {q['over_10deg_unflagged']}, same families "
                   f"{f(q['same_families'])}, matched families all right {f(q['families_right'])}, rotation "
                   f"{f(q['rotation_deg']['median'], ' deg')}")
-    print(f"per-pair results in {os.path.join(data, 'results_images')} (no report: run without --images-only)")
+    print(f"per-pair results in {os.path.join(data, 'results_images')}; wrote {os.path.join(out, 'images.md')} (the "
+          "label path beside it: run without --images-only)")
     return 0
 
 
@@ -116,7 +118,7 @@ def _benchmark(args) -> int:
     out = check_out_dir(args.out)
     data = check_out_dir(args.data, "--data") if args.data else out
     if args.images_only:
-        return _images_only(spec, data, args)
+        return _images_only(spec, data, out, args)
     agg = run_benchmark(spec, out, data=data, workers=args.workers, progress=not args.no_progress,
                         command=_command(args), images=args.images)
     for name, a in agg.items():
@@ -182,7 +184,8 @@ def register(sub) -> None:
     b.add_argument("--images", action="store_true",
                    help="also the image-only path on every pair (catadioptric relative-pose; no labels)")
     b.add_argument("--images-only", action="store_true",
-                   help="the image-only path alone: its per-pair results and a summary printed, no report")
+                   help="the image-only path alone: its per-pair results, a summary printed and its own report "
+                        "(images.md in --out; report.md is not touched)")
     b.add_argument("--no-progress", action="store_true", help="no progress bars")
     b.set_defaults(func=_benchmark, command_line=None)
     n = vs.add_parser("noise-sweep", help="synthetic noise sweeps of VPs, directions and rotation (paper Figs. 5-6)")
