@@ -122,6 +122,11 @@ def test_benchmark_at_its_ci_size(tmp_path, capsys):
         assert all(q["over_10deg_unflagged"] == 0 for q in e["priors"].values())
     md = open(os.path.join(out, "report.md")).read()
     assert "## From the images alone (no labels)" in md and "labels, 1 px" in md
+    from catadioptric.validate.benchmark import code_digest
+
+    for what in ("label path", "image path"):  # which code made the figures
+        assert (f"The {what}'s per-pair results were computed by the package code of digest "
+                f"`{code_digest()[:8]}` ({len(results)} pairs)") in md
     # the image path alone reads its results back, prints their summary and writes its own report
     # beside the full one, which it leaves alone
     images = {r: os.path.getmtime(os.path.join(out, "results_images", r, "p00.json")) for r in results}

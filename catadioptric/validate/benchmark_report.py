@@ -267,8 +267,20 @@ def benchmark_markdown(spec: dict, agg: dict, results: list, command: str, timin
           "(all noise levels and draws, both models): "
           + ", ".join(f"{n} {_fmt(a['seconds_per_pair'], 3)} s" for n, a in agg.items()) + ".", "",
           "Plots: `rotation.png` (rotation error against noise), `translation.png` (translation error).", "",
-          f"Reproduce: `{command}`", ""]
+          f"Reproduce: `{command}`", "", code_line(results, "label path"), ""]
     return "\n".join(L)
+
+
+def code_line(results: list, what: str) -> str:
+    """Which code computed the per-pair results (``benchmark.code_digest``, first 8 digits, with
+    how many pairs each): results are read back while the code is unchanged, so one report may
+    hold results of several runs."""
+    count: dict = {}
+    for r in results:
+        key = str(r.get("code") or "unknown")[:8]
+        count[key] = count.get(key, 0) + 1
+    return (f"The {what}'s per-pair results were computed by the package code of digest "
+            + ", ".join(f"`{k}` ({n} pairs)" for k, n in sorted(count.items())) + " (`benchmark.code_digest`).")
 
 
 def _prior_key(p) -> str:
@@ -461,7 +473,8 @@ def write_images_report(spec: dict, image_results: list, out: str, *, command: s
                      f"Spec: `{spec.get('source', spec['name'])}` (seed {spec['seed']}, {spec['pairs']} pairs per "
                      f"configuration, {spec['resolution']}, quality `{spec['quality']}`). Per-pair results computed "
                      f"in {timing.get('images_seconds', float('nan')):.0f} s (pairs already computed with the same "
-                     "code are read back).", "", f"Reproduce: `{command}`", "",
+                     "code are read back).", "", f"Reproduce: `{command}`", "", code_line(image_results, "image path"),
+                     "",
                      images_markdown(spec, agg_im, shown, labels=False)])
     atomic_write_bytes(os.path.join(out, "images.md"), md.encode())
     atomic_write_json(os.path.join(out, "images.json"),
@@ -482,7 +495,8 @@ def write_benchmark_report(spec: dict, results: list, out: str, *, command: str,
     agg_im = None
     if image_results is not None:
         agg_im = aggregate_images(spec, results, image_results)
-        md += "\n" + images_markdown(spec, agg_im, _copy_overlays(overlays, out))
+        md += "\n" + images_markdown(spec, agg_im, _copy_overlays(overlays, out)) + "\n" + code_line(
+            image_results, "image path") + "\n"
     try:
         atomic_write_bytes(os.path.join(out, "rotation.png"),
                            _plot(agg, spec, "rotation_deg", "rotation error (deg)", ("exact", "central", "selected"),
