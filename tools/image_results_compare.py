@@ -4,6 +4,7 @@ it misses look like (docs/relative_pose.md, "Families only both images show").
     .venv/bin/python tools/image_results_compare.py misses RESULTS
     .venv/bin/python tools/image_results_compare.py compare BASE NEW [--prior 60]
     .venv/bin/python tools/image_results_compare.py margins RESULTS [--prior 60|none] [--bars 20,33,60,rule]
+    .venv/bin/python tools/image_results_compare.py assignments RESULTS [RESULTS ...] [--off 5] [--buckets 4,12,24]
 
 ``RESULTS``, ``BASE``, ``NEW``: ``results_images`` folders of ``catadioptric validate benchmark
 --images`` (one JSON per pair; a run kept before a code change is a copy of that folder; the
@@ -18,7 +19,10 @@ the median rotation error, in how many pairs it is lower and the Wilcoxon signed
 the pairs where ``NEW`` found families in both views at once, with their rotation errors,
 families all right and recall before and after. ``margins``: the ambiguous answers more than 1
 degree off with their margins, and for each bar on the margin (``decisive_matching``) the pairs
-it would answer, how many of those are more than 10 degrees off and the largest error. Needs the
+it would answer, how many of those are more than 10 degrees off and the largest error.
+``assignments``: every run by the number of family assignments it tried, with the largest margin
+of a wrong answer in each group (what the default bar, ``catadioptric.pose.matching_bar``, rests
+on). Needs the
 benchmark's datasets for ``misses`` (render/out/relative_pose_benchmark/datasets).
 """
 from __future__ import annotations
@@ -138,6 +142,30 @@ def margins(folder, prior, bars):
               f"the largest error {worst:.2f} deg")
 
 
+def assignments(folders, off_deg, buckets):
+    """Every run (every prior) of each folder, by the number of family assignments it tried: how
+    many runs, how many best candidates more than ``off_deg`` off and the largest margin among
+    those (inf: a single assignment, no rival), the right ones' margins against the bars."""
+    from catadioptric.pose import MATCHING_BARS
+
+    print(f"family assignments tried | runs | more than {off_deg:g} deg off | their largest margin | "
+          "margins of the rest: median, at least " + ", ".join(f"{b:g}" for _, b in MATCHING_BARS))
+    edges = [0, *buckets, 10**9]
+    for folder in folders:
+        runs = [r for res in _load(folder).values() for r in res["runs"] if "error" not in r]
+        print(folder)
+        for lo, hi in zip(edges[:-1], edges[1:]):
+            rs = [r for r in runs if lo < r["candidates"] <= hi]
+            if not rs:
+                continue
+            m = [float("inf") if r["margin"] is None else r["margin"] for r in rs]
+            off = [x for x, r in zip(m, rs) if r["rotation_error_deg"] > off_deg]
+            rest = sorted(x for x, r in zip(m, rs) if r["rotation_error_deg"] <= off_deg)
+            med = rest[len(rest) // 2] if rest else float("nan")
+            print(f"{lo + 1}-{hi if hi < 10**9 else ''} | {len(rs)} | {len(off)} | {max(off, default=float('nan')):.1f} | "
+                  f"{med:.1f}, " + ", ".join(str(sum(x >= b for x in rest)) for _, b in MATCHING_BARS))
+
+
 def _prior(text):
     """``--prior``: a number of degrees, or ``none`` for the runs without a prior."""
     return None if text.lower() == "none" else float(text)
@@ -158,8 +186,14 @@ def main():
     g.add_argument("--prior", type=_prior, default=60.0, help="degrees, or none")
     g.add_argument("--bars", default="20,33,60,rule",
                    help="comma-separated bars on the margin; rule: the default bar of the assignments tried")
+    s = sub.add_parser("assignments")
+    s.add_argument("results", nargs="+")
+    s.add_argument("--off", type=float, default=5.0, help="an answer this many degrees off is wrong (default 5)")
+    s.add_argument("--buckets", default="4,12,24", help="upper ends of the groups of assignment counts")
     a = ap.parse_args()
-    if a.cmd == "margins":
+    if a.cmd == "assignments":
+        assignments(a.results, a.off, [int(x) for x in a.buckets.split(",")])
+    elif a.cmd == "margins":
         margins(a.results, a.prior, [x if x == "rule" else float(x) for x in a.bars.split(",")])
     elif a.cmd == "misses":
         misses(a.results, a.prior)
