@@ -6,9 +6,12 @@ ground truth + files) and views per minute of a dataset rendered with --workers 
     .venv/bin/python bench/bench_render.py --agreement --size 160x120   # label agreement, 24 views
     .venv/bin/python bench/bench_render.py --dataset render/urban_street_walk.toml --views 1000 \
         --run workers:2|dask:1|dask:2 [--out DIR]                        # a whole dataset, end to end
+    .venv/bin/python bench/bench_render.py --qualities standard,high [--renderers mitsuba] [--views 4]
+                                                        # one renderer's presets, alternating view by view
 
 Writes bench/results/render.json (render-sampled.json with --line-images sampled;
-render-dataset-<views>-<run>.json with --dataset; commit, versions, machine: bench/common.py).
+render-dataset-<views>-<run>.json with --dataset, render-quality-<renderer>.json with --qualities;
+commit, versions, machine: bench/common.py).
 Every timing comes with the CPU seconds it took (this process and its children: the load of
 other work on a shared machine stretches wall time, not CPU time) and the load average
 before and after. Standalone (not in bench/run.py: it needs POV-Ray and takes about ten
@@ -126,6 +129,45 @@ def run(scene_name="urban_street", n_views=6, size=(640, 480), renderers=("mitsu
                       f"{60 * n_views / dt:.1f} views/min", flush=True)
     out["loadavg_before"], out["loadavg_after"] = list(load_before), list(os.getloadavg())
     return out
+
+
+def qualities(scene_name="urban_street", renderer="mitsuba", names=("standard", "high"), n_views=4,
+              size=(640, 480)) -> dict:
+    """Seconds per view of one renderer at each quality preset, measured in one run: each view is
+    rendered at every preset in turn (the machine's load falls on all alike), after one warm-up
+    view per preset; the ratios are of the medians to the first preset's."""
+    from catadioptric.render.common import load_quality
+    from catadioptric.render.dataset import ViewTask, render_view_files
+    from catadioptric.render.tracer import scene_digest
+    from catadioptric.scenes import build_scene, scene_rig
+
+    load_before = os.getloadavg()
+    scene = build_scene(scene_name)
+    scene._catadioptric_digest = scene_digest(scene)
+    cam = scene_rig(scene.spec, width=size[0], height=size[1])
+    views = _views(scene.spec, max(n_views, 1))
+    presets = {q: load_quality(q) for q in names}
+    rows = {q: [] for q in names}
+    with tempfile.TemporaryDirectory() as tmp:
+        for i, (name, pose) in enumerate([views[0]] + views[:n_views]):
+            for q in names:
+                task = ViewTask(name, os.path.join(tmp, q, f"{i}_{name}"), renderer, presets[q], cam.to_dict(),
+                                pose.to_dict(), 0, "bench", scene._catadioptric_digest)
+                c = cpu_seconds()
+                res = render_view_files(scene, task)
+                row = {"view": name, "seconds": res["seconds"], "cpu_seconds": cpu_seconds() - c,
+                       "render": res["seconds_parts"]["render"]}
+                print(f"  {renderer} {q} {name}: {row['seconds']:.2f} s (render {row['render']:.2f} s, cpu "
+                      f"{row['cpu_seconds']:.2f} s){' warm-up' if i == 0 else ''}", flush=True)
+                if i:
+                    rows[q].append(row)
+    med = {q: {k: float(np.median([r[k] for r in rows[q]])) for k in ("seconds", "render", "cpu_seconds")}
+           for q in names}
+    base = med[names[0]]
+    return {"renderer": renderer, "image": list(size), "scene": scene.name, "views": n_views,
+            "presets": presets, "median": med,
+            "ratio_to_" + names[0]: {q: {k: med[q][k] / base[k] for k in base} for q in names},
+            "rows": rows, "loadavg_before": list(load_before), "loadavg_after": list(os.getloadavg())}
 
 
 def agreement(size=(160, 120)) -> dict:
@@ -276,8 +318,22 @@ def main() -> int:
                          "(bench/results/render-dataset-<views>-<run>.json)")
     ap.add_argument("--run", default="workers:2", help="with --dataset: workers:N or dask:N (default workers:2)")
     ap.add_argument("--out", help="with --dataset: keep the dataset in this folder (default: a temporary one)")
+    ap.add_argument("--qualities", metavar="Q1,Q2,...",
+                    help="instead: the first renderer of --renderers at these presets, view by view in turn "
+                         "(bench/results/render-quality-<renderer>.json; --views views, default 6)")
     args = ap.parse_args()
     w, h = (int(x) for x in args.size.split("x"))
+    if args.qualities:
+        renderer = args.renderers.split(",")[0]
+        names = tuple(args.qualities.split(","))
+        res = qualities(args.scene, renderer, names, args.views, (w, h))
+        path = os.path.join(HERE, "results", f"render-quality-{renderer}.json")
+        write_json(path, {"benchmark": "render-quality", "meta": metadata(), **res})
+        ratio = res["ratio_to_" + names[0]]
+        print(f"wrote {os.path.relpath(path)}: " + ", ".join(
+            f"{q} {res['median'][q]['seconds']:.2f} s per view ({ratio[q]['seconds']:.2f}x, render "
+            f"{ratio[q]['render']:.2f}x, CPU {ratio[q]['cpu_seconds']:.2f}x)" for q in names))
+        return 0
     if args.dataset:
         res = dataset(args.dataset, args.views, args.run, (w, h), args.out)
         path = os.path.join(HERE, "results", f"render-dataset-{args.views}-{args.run.replace(':', '')}.json")
