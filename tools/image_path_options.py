@@ -97,6 +97,8 @@ def main() -> None:
     ap.add_argument("--data", default="render/out/relative_pose_benchmark")
     ap.add_argument("--renderer", choices=("mitsuba", "povray"),
                     help="only the pairs of this renderer (among the first --pairs)")
+    ap.add_argument("--only", metavar="CONFIG:PAIR,...",
+                    help="only these pairs (e.g. ellipsoid:0,sphere:12; among the first --pairs)")
     ap.add_argument("--workers", type=int, default=1)
     args = ap.parse_args()
     options = {}
@@ -115,9 +117,11 @@ def main() -> None:
         if name not in names:
             ap.error(f"configs: expected 'all' or some of {names}, got {name!r}")
 
+    only = None if not args.only else {(c, int(k)) for c, _, k in (x.partition(":") for x in args.only.split(","))}
+
     def pairs(name):
         return [p for p in pairs_of(spec, spec["configs"][names.index(name)])[: args.pairs]
-                if args.renderer in (None, p.renderer)]
+                if args.renderer in (None, p.renderer) and (only is None or (name, p.index) in only)]
 
     if args.detection_only:
         todo = [(args.data, name, pair, side, options) for name in configs
