@@ -5,6 +5,7 @@ it misses look like (docs/relative_pose.md, "Families only both images show").
     .venv/bin/python tools/image_results_compare.py compare BASE NEW [--prior 60]
     .venv/bin/python tools/image_results_compare.py margins RESULTS [--prior 60|none] [--bars 20,33,60,rule]
     .venv/bin/python tools/image_results_compare.py assignments RESULTS [RESULTS ...] [--off 5] [--buckets 4,12,24]
+    .venv/bin/python tools/image_results_compare.py calibration RESULTS [RESULTS ...]
 
 ``RESULTS``, ``BASE``, ``NEW``: ``results_images`` folders of ``catadioptric validate benchmark
 --images`` (one JSON per pair; a run kept before a code change is a copy of that folder; the
@@ -22,7 +23,9 @@ degree off with their margins, and for each bar on the margin (``decisive_matchi
 it would answer, how many of those are more than 10 degrees off and the largest error.
 ``assignments``: every run by the number of family assignments it tried, with the largest margin
 of a wrong answer in each group (what the default bar, ``catadioptric.pose.matching_bar``, rests
-on). Needs the
+on). ``calibration``: the answered runs' rotation error over their own claimed deviation (what the
+joint families' guard in ``catadioptric.twoview`` is scaled by). ``misses`` also gives where the
+families of three or more lines were lost. Needs the
 benchmark's datasets for ``misses`` (render/out/relative_pose_benchmark/datasets).
 """
 from __future__ import annotations
@@ -66,6 +69,22 @@ def misses(folder, prior):
     print("lines in the sparser view | label families | not matched right")
     for k in sorted(labelled):
         print(f"{'4+' if k == 4 else k} | {labelled[k]} | {missed[k]}")
+    causes = collections.Counter(
+        x["cause"].split(": ", 1)[-1] for r in _load(folder).values() for run in [_run(r, prior)]
+        if run is not None and "error" not in run for x in run["families_lost"] if x["family"] in r["families_label_3"])
+    print("families of three or more lines in each view, not matched right, by where they were lost "
+          "(families_lost, either view): " + ", ".join(f"{c} {n}" for c, n in causes.most_common()))
+
+
+def calibration(folders):
+    """The answered runs' rotation error over the rotation deviation the answer claims
+    (``rotation_std_deg``): about 1 for a right covariance."""
+    for folder in folders:
+        z = np.array([r["rotation_error_deg"] / r["rotation_std_deg"] for res in _load(folder).values()
+                      for r in res["runs"] if "error" not in r and not r["ambiguous"]
+                      and np.isfinite(r.get("rotation_std_deg") or np.nan) and r["rotation_std_deg"] > 0])
+        print(f"{folder}: {len(z)} answered runs, error over claimed deviation: median {np.median(z):.2f}, "
+              f"90th percentile {np.quantile(z, 0.9):.2f}, above 5: {int(np.sum(z > 5))}")
 
 
 def compare(base_dir, new_dir, prior):
@@ -186,12 +205,16 @@ def main():
     g.add_argument("--prior", type=_prior, default=60.0, help="degrees, or none")
     g.add_argument("--bars", default="20,33,60,rule",
                    help="comma-separated bars on the margin; rule: the default bar of the assignments tried")
+    k = sub.add_parser("calibration")
+    k.add_argument("results", nargs="+")
     s = sub.add_parser("assignments")
     s.add_argument("results", nargs="+")
     s.add_argument("--off", type=float, default=5.0, help="an answer this many degrees off is wrong (default 5)")
     s.add_argument("--buckets", default="4,12,24", help="upper ends of the groups of assignment counts")
     a = ap.parse_args()
-    if a.cmd == "assignments":
+    if a.cmd == "calibration":
+        calibration(a.results)
+    elif a.cmd == "assignments":
         assignments(a.results, a.off, [int(x) for x in a.buckets.split(",")])
     elif a.cmd == "margins":
         margins(a.results, a.prior, [x if x == "rule" else float(x) for x in a.bars.split(",")])
