@@ -6,6 +6,7 @@ import os
 import numpy as np
 import pytest
 
+from catadioptric._checks import CatadioptricError
 from catadioptric.cli import main
 from catadioptric.dataset import Dataset
 from catadioptric.validate.observations import curve_pixels, line_pixels, ridge_pixels
@@ -221,6 +222,43 @@ def test_benchmark_results_are_kept_by_the_code_that_made_them(tmp_path):
     for kind in ("labels", "images"):
         assert _fingerprint(spec, config, pair, kind, d0) != _fingerprint(spec, config, pair, kind, d1)
         assert _fingerprint(spec, config, pair, kind) == _fingerprint(spec, config, pair, kind, code_digest())
+
+
+def test_the_quality_of_each_renderer():
+    """``quality`` is one preset or a table of one per renderer (the benchmark renders Mitsuba at
+    high, POV-Ray at standard); an unknown preset is named when the spec is read; the quality keys
+    the image path's results, not the label path's (labels are exact at every preset)."""
+    import tomllib
+
+    from catadioptric.validate.benchmark import _fingerprint
+    from catadioptric.validate.benchmark_spec import (load_benchmark_spec, pairs_of, quality_of, quality_text,
+                                                      quick_spec, read_benchmark_spec)
+
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    path = os.path.join(root, "validate", "relative_pose.toml")
+    spec = load_benchmark_spec(path)
+    assert (quality_of(spec, "mitsuba"), quality_of(spec, "povray")) == ("high", "standard")
+    assert quality_text(spec) == "mitsuba `high`, povray `standard`"
+    quick = quick_spec(spec)
+    assert quality_of(quick, "mitsuba") == quality_of(quick, "povray") == "draft" and quality_text(quick) == "`draft`"
+    with open(path, "rb") as f:
+        data = tomllib.load(f)
+    one = read_benchmark_spec(data | {"quality": "standard"})
+    assert quality_of(one, "mitsuba") == "standard"
+    partial = read_benchmark_spec(data | {"quality": {"mitsuba": "high"}})
+    assert partial["quality"] == {"mitsuba": "high", "povray": "standard"}
+    for bad, msg in ((
+            {"mitsuba": "hig"}, "benchmark.quality.mitsuba: expected one of ['draft', 'high', 'standard'] or a .toml "
+                                "file, got 'hig'"),
+            ({"blender": "high"}, "benchmark.quality.blender: unknown key"),
+            ("best", "benchmark.quality: expected one of ['draft', 'high', 'standard'] or a .toml file, got 'best'")):
+        with pytest.raises(CatadioptricError) as e:
+            read_benchmark_spec(data | {"quality": bad})
+        assert str(e.value).startswith(msg)
+    config = spec["configs"][0]
+    pair = pairs_of(spec, config)[0]
+    assert _fingerprint(spec, config, pair, "labels", "c") == _fingerprint(one, config, pair, "labels", "c")
+    assert _fingerprint(spec, config, pair, "images", "c") != _fingerprint(one, config, pair, "images", "c")
 
 
 def test_the_central_approximations_own_error():

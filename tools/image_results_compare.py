@@ -6,6 +6,7 @@ it misses look like (docs/relative_pose.md, "Families only both images show").
     .venv/bin/python tools/image_results_compare.py margins RESULTS [--prior 60|none] [--bars 20,33,60,rule]
     .venv/bin/python tools/image_results_compare.py assignments RESULTS [RESULTS ...] [--off 5] [--buckets 4,12,24]
     .venv/bin/python tools/image_results_compare.py calibration RESULTS [RESULTS ...]
+    .venv/bin/python tools/image_results_compare.py pixel-error RESULTS [RESULTS ...]
 
 ``RESULTS``, ``BASE``, ``NEW``: ``results_images`` folders of ``catadioptric validate benchmark
 --images`` (one JSON per pair; a run kept before a code change is a copy of that folder; the
@@ -24,7 +25,11 @@ it would answer, how many of those are more than 10 degrees off and the largest 
 ``assignments``: every run by the number of family assignments it tried, with the largest margin
 of a wrong answer in each group (what the default bar, ``catadioptric.pose.matching_bar``, rests
 on). ``calibration``: the answered runs' rotation error over their own claimed deviation (what the
-joint families' guard in ``catadioptric.twoview`` is scaled by). ``misses`` also gives where the
+joint families' guard in ``catadioptric.twoview`` is scaled by). ``pixel-error``: how far the
+detected pixels lie from the exact curves of the lines they match (``distance_median_px`` of
+:func:`catadioptric.detect.evaluate_view`), per configuration and renderer, and the Gaussian noise
+of the same median distance (median / 0.6745): the label path's noise level the image path's
+pixels are comparable to. ``misses`` also gives where the
 families of three or more lines were lost. Needs the
 benchmark's datasets for ``misses`` (render/out/relative_pose_benchmark/datasets).
 """
@@ -74,6 +79,22 @@ def misses(folder, prior):
         if run is not None and "error" not in run for x in run["families_lost"] if x["family"] in r["families_label_3"])
     print("families of three or more lines in each view, not matched right, by where they were lost "
           "(families_lost, either view): " + ", ".join(f"{c} {n}" for c, n in causes.most_common()))
+
+
+def pixel_error(folders):
+    """The detected pixels' median distance to the exact curves they match, per view, summarised
+    per configuration and renderer (module docstring)."""
+    for folder in folders:
+        rows = collections.defaultdict(list)
+        for r in _load(folder).values():
+            for d in r["detection"]:
+                if d.get("distance_median_px") is not None:
+                    rows[r["config"], r["renderer"]].append(d["distance_median_px"])
+                    rows["all", r["renderer"]].append(d["distance_median_px"])
+        print(f"{folder}: configuration | renderer | views | median distance (px) | as Gaussian noise (px)")
+        for (cfg, ren), v in sorted(rows.items()):
+            m = float(np.median(v))
+            print(f"{cfg} | {ren} | {len(v)} | {m:.3f} | {m / 0.6745:.2f}")
 
 
 def calibration(folders):
@@ -207,12 +228,16 @@ def main():
                    help="comma-separated bars on the margin; rule: the default bar of the assignments tried")
     k = sub.add_parser("calibration")
     k.add_argument("results", nargs="+")
+    e = sub.add_parser("pixel-error")
+    e.add_argument("results", nargs="+")
     s = sub.add_parser("assignments")
     s.add_argument("results", nargs="+")
     s.add_argument("--off", type=float, default=5.0, help="an answer this many degrees off is wrong (default 5)")
     s.add_argument("--buckets", default="4,12,24", help="upper ends of the groups of assignment counts")
     a = ap.parse_args()
-    if a.cmd == "calibration":
+    if a.cmd == "pixel-error":
+        pixel_error(a.results)
+    elif a.cmd == "calibration":
         calibration(a.results)
     elif a.cmd == "assignments":
         assignments(a.results, a.off, [int(x) for x in a.buckets.split(",")])

@@ -21,7 +21,7 @@ import time
 
 from .._checks import CatadioptricError
 from .._io import atomic_write_json, jsonable
-from .benchmark_spec import pairs_of
+from .benchmark_spec import pairs_of, quality_of
 
 __all__ = ["render_benchmark", "evaluate_benchmark", "run_benchmark", "dataset_folder", "code_digest"]
 
@@ -56,13 +56,15 @@ def render_benchmark(spec: dict, data: str, *, workers: int = 1, progress: bool 
             if progress:
                 print(f"[{config['name']} / {renderer}] {len(views)} views -> {folder}", file=sys.stderr)
             manifests[(config["name"], renderer)] = render_dataset(
-                scene, views, cam, folder, renderer=renderer, quality=spec["quality"], workers=workers,
+                scene, views, cam, folder, renderer=renderer, quality=quality_of(spec, renderer), workers=workers,
                 rig={"name": config["rig"]}, progress=progress)
     return manifests
 
 
-#: what each kind of evaluation reads from the spec (its results are reused while these are unchanged)
-_KEYS = {"labels": ("scene", "resolution", "quality", "seed", "noise_px", "draws", "pixels", "min_pixels",
+#: what each kind of evaluation reads from the spec (its results are reused while these are unchanged);
+#: the label path never reads the beauty image, and the labels are exact at every quality preset
+#: (catadioptric/data/quality.toml), so the quality is the image path's key only
+_KEYS = {"labels": ("scene", "resolution", "seed", "noise_px", "draws", "pixels", "min_pixels",
                     "max_pixels", "placement"),
          "images": ("scene", "resolution", "quality", "seed", "min_pixels", "placement", "images")}
 _FOLDER = {"labels": "results", "images": "results_images"}

@@ -9,6 +9,7 @@ import numpy as np
 
 from .._io import atomic_write_bytes, atomic_write_json, jsonable
 from .report import md_table
+from .benchmark_spec import quality_text
 
 __all__ = ["aggregate", "aggregate_images", "write_benchmark_report", "write_images_report", "benchmark_markdown",
            "images_markdown", "median_interval"]
@@ -159,7 +160,7 @@ def benchmark_markdown(spec: dict, agg: dict, results: list, command: str, timin
     noises = spec["noise_px"]
     L = [f"# Relative pose benchmark `{spec['name']}`", "",
          f"Scene `{spec['scene']}`, {spec['pairs']} view pairs per configuration, {spec['resolution']} "
-         f"({spec['quality']} quality), renderers {', '.join(spec['renderers'])} (pairs alternate); line pixels "
+         f"(quality {quality_text(spec)}), renderers {', '.join(spec['renderers'])} (pairs alternate); line pixels "
          f"`{spec['pixels']}` (lines with at least {spec['min_pixels']} pixels, at most {spec['max_pixels']} per line "
          f"and view used), Gaussian noise {noises} px, {spec['draws']} draws each (one at 0 px: the same pixels in "
          "every draw). Families and line "
@@ -471,7 +472,7 @@ def write_images_report(spec: dict, image_results: list, out: str, *, command: s
     shown = _copy_overlays(overlays, out)
     md = "\n".join([f"# Relative-pose benchmark `{spec['name']}`: the images alone", "",
                      f"Spec: `{spec.get('source', spec['name'])}` (seed {spec['seed']}, {spec['pairs']} pairs per "
-                     f"configuration, {spec['resolution']}, quality `{spec['quality']}`). Per-pair results computed "
+                     f"configuration, {spec['resolution']}, quality {quality_text(spec)}). Per-pair results computed "
                      f"in {timing.get('images_seconds', float('nan')):.0f} s (pairs already computed with the same "
                      "code are read back).", "", f"Reproduce: `{command}`", "", code_line(image_results, "image path"),
                      "",
