@@ -261,6 +261,24 @@ def test_the_quality_of_each_renderer():
     assert _fingerprint(spec, config, pair, "images", "c") != _fingerprint(one, config, pair, "images", "c")
 
 
+def test_the_image_path_is_set_beside_the_label_path_at_its_own_pixel_noise():
+    """The ratio of the report's image section: against the label path at the smallest noise level
+    at least the detected pixels' own (median distance / 0.6745), none when no level is."""
+    from catadioptric.validate.benchmark_report import _comparable_level
+
+    def entry(dist, im=0.2):
+        return {"pixel_distance_px": {"median": dist}, "priors": {"60": {"rotation_deg": {"median": im}}},
+                "labels_rotation_deg": {"0.5": {"median": 0.05}, "1": {"median": 0.1}, "2": {"median": 0.2}}}
+
+    noises = [0.5, 1, 2]
+    assert _comparable_level(entry(0.30), "60", noises) == (0.5, pytest.approx(4.0))  # 0.30 px: sigma 0.445
+    assert _comparable_level(entry(0.55), "60", noises) == (1, pytest.approx(2.0))  # sigma 0.815
+    assert _comparable_level(entry(0.70), "60", noises) == (2, pytest.approx(1.0))  # sigma 1.04
+    assert _comparable_level(entry(1.40), "60", noises) == (None, None)  # sigma 2.08: beyond every level
+    assert _comparable_level(entry(None), "60", noises) == (None, None)
+    assert _comparable_level(entry(0.55, None), "60", noises) == (None, None)
+
+
 def test_the_central_approximations_own_error():
     """central_model_error_px: 0 for a central rig (its exact unified model), a fraction of a pixel
     for the hyperboloid off its focus (docs/relative_pose.md, 'The fair central baseline')."""

@@ -9,6 +9,7 @@ import numpy as np
 
 from .._io import atomic_write_bytes, atomic_write_json, jsonable
 from .report import md_table
+from ..linefit._common import _HALF_NORMAL_MEDIAN
 from .benchmark_spec import quality_text
 
 __all__ = ["aggregate", "aggregate_images", "write_benchmark_report", "write_images_report", "benchmark_markdown",
@@ -317,6 +318,9 @@ def aggregate_images(spec: dict, results: list, image_results: list) -> dict:
             e = {"pairs": len(ims), "recovered": mean("recovered_fraction"),
                  "family_precision": mean("family_precision"), "family_recall": mean("family_recall"),
                  "family_recall_3": mean("family_recall_3"), "seconds_per_pair": _q([r["seconds"] for r in ims]),
+                 # the detected pixels' median distance to the exact curves they match, per view
+                 "pixel_distance_px": _q([v["distance_median_px"] for v in det
+                                          if v.get("distance_median_px") is not None]),
                  "turn_deg_max": float(max(r["turn_deg"] for r in ims)),
                  "priors": {}}
             for k, prior in enumerate((None, *spec["images"]["max_rotation_deg"])):
@@ -342,6 +346,23 @@ def aggregate_images(spec: dict, results: list, image_results: list) -> dict:
                 for n in spec["noise_px"]}
             out[f"{name}/{renderer}"] = e
     return out
+
+
+def _comparable_level(e: dict, prior: str, noises) -> tuple:
+    """The smallest noise level of ``noises`` at least the image path's pixel noise (the detected
+    pixels' median distance over the half-normal median), and the image path's median rotation
+    error over the label path's there; ``(None, None)`` when either is unknown."""
+    dist = (e.get("pixel_distance_px") or {}).get("median")
+    im = e["priors"][prior]["rotation_deg"]
+    if dist is None or im is None or im.get("median") is None:
+        return None, None
+    above = [n for n in noises if n >= dist / _HALF_NORMAL_MEDIAN]
+    if not above:
+        return None, None
+    lab = e["labels_rotation_deg"][str(above[0])]
+    if lab is None or not lab.get("median"):
+        return None, None
+    return above[0], im["median"] / lab["median"]
 
 
 def images_markdown(spec: dict, agg_im: dict, overlays: dict, *, labels: bool = True) -> str:
@@ -384,11 +405,22 @@ def images_markdown(spec: dict, agg_im: dict, overlays: dict, *, labels: bool = 
                     "same families (directions too)", "all right (directions too)", "rotation (deg)",
                     "translation (m)", "translation direction (deg)"], rows), ""]
     if labels:
-        rows = [[k, _fmt(e["priors"][priors[-1]]["rotation_deg"])] + [_fmt(e["labels_rotation_deg"][str(n)])
-                                                                      for n in noises] for k, e in agg_im.items()]
+        rows = []
+        for k, e in agg_im.items():
+            level, ratio = _comparable_level(e, priors[-1], noises)
+            dist = (e.get("pixel_distance_px") or {}).get("median")
+            rows.append([k, _fmt(e["priors"][priors[-1]]["rotation_deg"])]
+                        + [_fmt(e["labels_rotation_deg"][str(n)]) for n in noises]
+                        + ["-" if dist is None else f"{dist:.3f}",
+                           "-" if ratio is None else f"{ratio:.2f} ({level:g} px)"])
         L += ["### Next to the label path on the same pairs (rotation error, degrees)", "",
+              "*Pixels*: the detected pixels' median distance to the exact curves of the lines they match (median "
+              "over the views; pixels within 1.5 px of a curve, so a lower bound of their error); Gaussian noise of standard deviation sigma puts pixels a median 0.674 sigma from "
+              "their curve. *Ratio*: the image path's median over the label path's at the smallest noise level "
+              "of at least the pixels' own (their distance / 0.674): the label path with pixels no better than "
+              "the detector's.", "",
               md_table(["configuration / renderer", f"images (prior {priors[-1]})"]
-                       + [f"labels, {n:g} px" for n in noises], rows), ""]
+                       + [f"labels, {n:g} px" for n in noises] + ["pixels (px)", "ratio (level)"], rows), ""]
     if overlays:
         L += ["### Overlays (first pair of each configuration)", "",
               "Detected lines coloured by family; B's families in the colour of the family of A they were matched "
