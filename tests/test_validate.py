@@ -261,6 +261,23 @@ def test_the_quality_of_each_renderer():
     assert _fingerprint(spec, config, pair, "images", "c") != _fingerprint(one, config, pair, "images", "c")
 
 
+def test_evaluating_some_pairs_names_the_ones_the_spec_does_not_have(tmp_path):
+    from catadioptric.validate.benchmark import evaluate_benchmark, results_folder
+    from catadioptric.validate.benchmark_spec import load_benchmark_spec
+
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    spec = load_benchmark_spec(os.path.join(root, "validate", "relative_pose.toml"))
+    with pytest.raises(CatadioptricError) as e:
+        evaluate_benchmark(spec, str(tmp_path), only=[("sphere", 3), ("sphere", 20), ("cube", 0)], kind="images")
+    assert str(e.value) == ("only: expected pairs of the spec (configurations ['sphere', 'ellipsoid', 'hyperboloid', "
+                            "'hyperboloid_central', 'hyperboloid_9pct'], indices below 20), got [('cube', 0), "
+                            "('sphere', 20)]")
+    assert evaluate_benchmark(spec, str(tmp_path), only=[], kind="images") == []
+    assert results_folder("D", "images") == os.path.join("D", "results_images")
+    with pytest.raises(CatadioptricError, match="kind: expected one of"):
+        results_folder("D", "image")
+
+
 def test_the_image_path_is_set_beside_the_label_path_at_its_own_pixel_noise():
     """The ratio of the report's image section: against the label path at the smallest noise level
     at least the detected pixels' own (median distance / 0.6745), none when no level is."""

@@ -19,7 +19,7 @@ import time
 from catadioptric.cliargs import parse_resolution
 from catadioptric.render.dataset import render_dataset
 from catadioptric.rigspec import load_rig
-from catadioptric.validate.benchmark import _scene, dataset_folder
+from catadioptric.validate.benchmark import benchmark_scene, dataset_folder
 from catadioptric.validate.benchmark_spec import load_benchmark_spec, pairs_of
 
 
@@ -35,7 +35,7 @@ def main() -> None:
     args = ap.parse_args()
     spec = load_benchmark_spec(args.spec)
     w, h = parse_resolution(spec["resolution"], "resolution")
-    scene = _scene(spec)
+    scene = benchmark_scene(spec)
     os.makedirs(os.path.join(args.data, "datasets"), exist_ok=True)
     seconds, views_done = 0.0, 0
     for config in spec["configs"]:

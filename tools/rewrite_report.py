@@ -18,7 +18,7 @@ import json
 import os
 from pathlib import Path
 
-from catadioptric.validate.benchmark import _FOLDER, _overlays
+from catadioptric.validate.benchmark import overlay_paths, results_folder
 from catadioptric.validate.benchmark_report import write_benchmark_report
 from catadioptric.validate.benchmark_spec import load_benchmark_spec, pairs_of
 
@@ -27,7 +27,7 @@ def _results(spec, data, kind):
     out = []
     for config in spec["configs"]:
         for p in pairs_of(spec, config):
-            path = Path(data, _FOLDER[kind], config["name"], f"p{p.index:02d}.json")
+            path = Path(results_folder(data, kind), config["name"], f"p{p.index:02d}.json")
             if not path.is_file():
                 raise SystemExit(f"{path}: missing; run the benchmark first")
             out.append(json.loads(path.read_text()))
@@ -50,7 +50,7 @@ def main() -> None:
     for name, rs in (("labels", labels), ("images", images)):
         print(f"{name}: code digests {dict(collections.Counter(r['code'][:8] for r in rs))}")
     write_benchmark_report(spec, labels, args.out, command=old["command"], timing=timing, image_results=images,
-                           overlays=_overlays(spec, args.data))
+                           overlays=overlay_paths(spec, args.data))
     print(f"wrote {os.path.join(args.out, 'report.md')}")
 
 

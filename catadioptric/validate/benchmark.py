@@ -23,14 +23,24 @@ from .._checks import CatadioptricError
 from .._io import atomic_write_json, jsonable
 from .benchmark_spec import pairs_of, quality_of
 
-__all__ = ["render_benchmark", "evaluate_benchmark", "run_benchmark", "dataset_folder", "code_digest"]
+__all__ = ["render_benchmark", "evaluate_benchmark", "run_benchmark", "dataset_folder", "results_folder",
+           "overlay_paths", "benchmark_scene", "code_digest"]
 
 
 def dataset_folder(data: str, config: str, renderer: str) -> str:
     return os.path.join(data, "datasets", f"{config}_{renderer}")
 
 
-def _scene(spec):
+def results_folder(data: str, kind: str) -> str:
+    """Where the per-pair results of ``kind`` (``"labels"`` or ``"images"``) go: ``data/results``,
+    ``data/results_images``."""
+    if kind not in _FOLDER:
+        raise CatadioptricError(f"kind: expected one of {list(_FOLDER)}, got {kind!r}")
+    return os.path.join(data, _FOLDER[kind])
+
+
+def benchmark_scene(spec):
+    """The scene the spec's views are of (``scene``: a scene name or spec file)."""
     from ..scenes import build_scene, spec_path
 
     return build_scene(spec_path(spec["scene"]))
@@ -44,7 +54,7 @@ def render_benchmark(spec: dict, data: str, *, workers: int = 1, progress: bool 
     from ..rigspec import load_rig
 
     w, h = parse_resolution(spec["resolution"], "resolution")
-    scene = _scene(spec)
+    scene = benchmark_scene(spec)
     manifests = {}
     for config in spec["configs"]:
         cam = load_rig(config["rig"], width=w, height=h)
@@ -118,19 +128,32 @@ def _evaluate_task(item):
 
 
 def evaluate_benchmark(spec: dict, data: str, *, workers: int = 1, progress: bool = True,
-                       kind: str = "labels") -> list[dict]:
+                       kind: str = "labels", only=None, out: str | None = None) -> list[dict]:
     """Evaluate every pair (resuming: a pair whose result file has this fingerprint, of the spec's
     keys and of the package's code (:func:`code_digest`), is read back, not recomputed).
     ``kind``: ``"labels"`` (the line pixels and families from the labels, every noise level) or
-    ``"images"`` (the image-only path, :mod:`catadioptric.validate.image_pairs`). Returns the
-    pair results in spec order."""
+    ``"images"`` (the image-only path, :mod:`catadioptric.validate.image_pairs`). ``only``: the
+    pairs to evaluate, ``(configuration, pair index)`` tuples (default every pair); ``out``: the
+    folder of the per-pair results (default :func:`results_folder`; another one keeps a partial
+    run apart from the benchmark's). Returns the pair results in spec order."""
     if kind not in _KEYS:
         raise CatadioptricError(f"kind: expected one of {list(_KEYS)}, got {kind!r}")
+    every = [(c["name"], p.index) for c in spec["configs"] for p in pairs_of(spec, c)]
+    if only is not None:
+        only = {(str(c), int(k)) for c, k in only}
+        unknown = sorted(only - set(every))
+        if unknown:
+            raise CatadioptricError(f"only: expected pairs of the spec (configurations "
+                                    f"{[c['name'] for c in spec['configs']]}, indices below {spec['pairs']}), "
+                                    f"got {unknown}")
+    folder = results_folder(data, kind) if out is None else out
     tasks, results = [], {}
     code = code_digest()
     for config in spec["configs"]:
         for p in pairs_of(spec, config):
-            path = os.path.join(data, _FOLDER[kind], config["name"], f"p{p.index:02d}.json")
+            if only is not None and (config["name"], p.index) not in only:
+                continue
+            path = os.path.join(folder, config["name"], f"p{p.index:02d}.json")
             fp = _fingerprint(spec, config, p, kind, code)
             key = (config["name"], p.index)
             try:
@@ -165,8 +188,7 @@ def evaluate_benchmark(spec: dict, data: str, *, workers: int = 1, progress: boo
     finally:
         if bar is not None:
             bar.close()
-    order = [(c["name"], p.index) for c in spec["configs"] for p in pairs_of(spec, c)]
-    return [results[k] for k in order]
+    return [results[k] for k in every if k in results]
 
 
 def run_images_only(spec: dict, data: str, *, out: str | None = None, workers: int = 1, progress: bool = True,
@@ -186,13 +208,13 @@ def run_images_only(spec: dict, data: str, *, out: str | None = None, workers: i
     image_results = evaluate_benchmark(spec, data, workers=workers, progress=progress, kind="images")
     if out is None:
         return aggregate_images(spec, [], image_results)
-    return write_images_report(spec, image_results, out, command=command, overlays=_overlays(spec, data),
+    return write_images_report(spec, image_results, out, command=command, overlays=overlay_paths(spec, data),
                                timing={"images_seconds": time.perf_counter() - t0})
 
 
-def _overlays(spec, data) -> dict:
-    """The overlay of the first pair of each configuration."""
-    return {c["name"]: os.path.join(data, _FOLDER["images"], c["name"], "p00.png") for c in spec["configs"]}
+def overlay_paths(spec, data) -> dict:
+    """The image path's overlay of the first pair of each configuration (the report shows them)."""
+    return {c["name"]: os.path.join(results_folder(data, "images"), c["name"], "p00.png") for c in spec["configs"]}
 
 
 def run_benchmark(spec: dict, out: str, *, data: str | None = None, workers: int = 1, progress: bool = True,
@@ -213,5 +235,5 @@ def run_benchmark(spec: dict, out: str, *, data: str | None = None, workers: int
     image_results = evaluate_benchmark(spec, data, workers=workers, progress=progress, kind="images") if images else None
     t3 = time.perf_counter()
     return write_benchmark_report(spec, results, out, command=command, image_results=image_results,
-                                  overlays=_overlays(spec, data) if images else None, timing={"render_seconds": t1 - t0, "evaluate_seconds": t2 - t1,
+                                  overlays=overlay_paths(spec, data) if images else None, timing={"render_seconds": t1 - t0, "evaluate_seconds": t2 - t1,
                                                              "images_seconds": t3 - t2})
