@@ -36,6 +36,17 @@ def test_images_alone_give_the_rotation_with_a_motion_prior(street):
     assert len(res.family_map) >= 3
     # the direction of the translation is right; its length is poorly observable on this near-central rig
     assert _angle(res.pose.t, t_gt) < 10.0
+    # the covariance is the fit's scaled by COVARIANCE_SCALE (the detected pixels' errors are not
+    # independent), the notes say so; covariance_scale=1 gives the fit's own
+    from catadioptric.twoview import COVARIANCE_SCALE, pose_from_detections
+
+    own = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0, covariance_scale=1)
+    assert np.array_equal(own.pose.R, res.pose.R)
+    np.testing.assert_allclose(res.pose.cov, own.pose.cov * COVARIANCE_SCALE**2, rtol=1e-12)
+    assert any("covariance: the fit's times" in n for n in res.pose.notes)
+    assert not any("covariance: the fit's times" in n for n in own.pose.notes)
+    with pytest.raises(cd.CatadioptricError, match="covariance_scale"):
+        pose_from_detections(*res.detections, covariance_scale=-1.0)
 
 
 def test_matching_without_labels_has_its_own_margin(street):
@@ -100,6 +111,31 @@ def test_scored_against_the_labels(street):
     lost = {x["family"] for x in run["families_lost"]}
     assert right.isdisjoint(lost) and (right | lost) >= set(r["families_label"])
     assert lost <= set(r["families_label"])
+    # the error against the answer's own covariance (a chi-square of 3 degrees of freedom if right)
+    assert 0.0 < run["rotation_mahalanobis2"] < 100.0
+
+
+def test_the_mahalanobis_square_of_an_error():
+    """``rotation_mahalanobis2`` is ``w^T C^-1 w`` of the left error rotation ``exp(w) = R R_gt^T``, in
+    the covariance's own frame; the translation's only for a metric one."""
+    from types import SimpleNamespace
+
+    from scipy.spatial.transform import Rotation
+
+    from catadioptric.validate.image_pairs import _mahalanobis
+
+    R_gt = Rotation.from_rotvec([0.1, -0.2, 0.3]).as_matrix()
+    w = np.array([1e-3, 2e-3, -1e-3])
+    cov = np.diag([1e-6, 4e-6, 1e-6, 0.01, 0.01, 0.04])
+    t_gt = np.array([1.0, 2.0, 0.5])
+    res = SimpleNamespace(R=Rotation.from_rotvec(w).as_matrix() @ R_gt, t=t_gt + [0.1, 0.0, 0.2], cov=cov, metric=True)
+    m = _mahalanobis(res, R_gt, t_gt)
+    assert m["rotation_mahalanobis2"] == pytest.approx(1.0 + 1.0 + 1.0, rel=1e-9)
+    assert m["translation_mahalanobis2"] == pytest.approx(1.0 + 0.0 + 1.0, rel=1e-9)
+    res.metric = False
+    assert _mahalanobis(res, R_gt, t_gt)["translation_mahalanobis2"] is None
+    res.cov = np.full((6, 6), np.nan)
+    assert _mahalanobis(res, R_gt, t_gt) == {"rotation_mahalanobis2": None, "translation_mahalanobis2": None}
 
 
 def test_a_lost_family_is_told_where_it_was_lost():

@@ -99,13 +99,23 @@ def pixel_error(folders):
 
 def calibration(folders):
     """The answered runs' rotation error over the rotation deviation the answer claims
-    (``rotation_std_deg``): about 1 for a right covariance."""
+    (``rotation_std_deg``, the root of the covariance's trace: a median of 0.67-0.89 for a right
+    covariance, by its shape) and, where the results have it, the error's Mahalanobis square
+    against the covariance (``rotation_mahalanobis2``: chi-square of 3 degrees of freedom, median
+    2.366, 90th percentile 6.25, for a right covariance) with the scale of the covariance that
+    would bring its median there."""
     for folder in folders:
-        z = np.array([r["rotation_error_deg"] / r["rotation_std_deg"] for res in _load(folder).values()
-                      for r in res["runs"] if "error" not in r and not r["ambiguous"]
-                      and np.isfinite(r.get("rotation_std_deg") or np.nan) and r["rotation_std_deg"] > 0])
+        runs = [r for res in _load(folder).values() for r in res["runs"] if "error" not in r and not r["ambiguous"]]
+        z = np.array([r["rotation_error_deg"] / r["rotation_std_deg"] for r in runs
+                      if np.isfinite(r.get("rotation_std_deg") or np.nan) and r["rotation_std_deg"] > 0])
         print(f"{folder}: {len(z)} answered runs, error over claimed deviation: median {np.median(z):.2f}, "
               f"90th percentile {np.quantile(z, 0.9):.2f}, above 5: {int(np.sum(z > 5))}")
+        m = np.array([r["rotation_mahalanobis2"] for r in runs if r.get("rotation_mahalanobis2") is not None])
+        if len(m):
+            print(f"  rotation error's Mahalanobis square: median {np.median(m):.2f} (2.37 for a right covariance), "
+                  f"90th percentile {np.quantile(m, 0.9):.2f} (6.25), above 11.34 (chi-square 3, 1 %): "
+                  f"{int(np.sum(m > 11.34))} of {len(m)}; deviations to scale by "
+                  f"{np.sqrt(np.median(m) / 2.366):.2f} for a right median")
 
 
 def compare(base_dir, new_dir, prior):

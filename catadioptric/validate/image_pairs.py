@@ -64,6 +64,28 @@ def _families_check(family_map, dets, scores, R, R_gt, label_families, label_fam
     return out
 
 
+def _mahalanobis(res, R_gt, t_gt) -> dict:
+    """The errors against the answer's own covariance: ``rotation_mahalanobis2``, ``w^T C_w^-1 w`` for
+    the error rotation ``exp(w) = R R_gt^T`` (left, as the covariance), and
+    ``translation_mahalanobis2`` for a metric translation; a chi-square of 3 degrees of freedom
+    (median 2.366) for a right covariance. None where the covariance is not known."""
+    from scipy.spatial.transform import Rotation
+
+    out = {"rotation_mahalanobis2": None, "translation_mahalanobis2": None}
+    cov = None if res.cov is None else np.asarray(res.cov, float)
+    if cov is None or not np.all(np.isfinite(cov[:3, :3])):
+        return out
+    w = Rotation.from_matrix(res.R @ R_gt.T).as_rotvec()
+    try:
+        out["rotation_mahalanobis2"] = float(w @ np.linalg.solve(cov[:3, :3], w))
+        if res.metric and res.t is not None and np.all(np.isfinite(cov[3:, 3:])):
+            e = np.asarray(res.t, float) - t_gt
+            out["translation_mahalanobis2"] = float(e @ np.linalg.solve(cov[3:, 3:], e))
+    except np.linalg.LinAlgError:
+        pass
+    return out
+
+
 def _lost(scores, label_families, rows) -> list[dict]:
     """Each label family not matched right, and where it was lost (module docstring)."""
     right = {r["true_a"] for r in rows if r["right"]}
@@ -155,6 +177,7 @@ def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, joint
                 rec["translation_direction_error_deg"] = _angle_deg(res.t, t_gt)
             else:
                 rec["translation_direction_error_deg"] = _angle_deg(res.t, R_gt @ centres[0] + t_gt - centres[1])
+        rec.update(_mahalanobis(res, R_gt, t_gt))
         rec.update(_families_check(fmap, fdets, fscores, res.R, R_gt, label_families, label_families_3))
         out["runs"].append(rec)
         last = pair
