@@ -58,7 +58,7 @@ def misses(folder, prior):
     from catadioptric.dataset import Dataset
     from catadioptric.detect.evaluate import label_curves
 
-    labelled, missed = collections.Counter(), collections.Counter()
+    labelled, missed, pairs = collections.Counter(), collections.Counter(), collections.Counter()
     for key, r in _load(folder).items():
         ds = Dataset(DATASETS / f"{r['config']}_{r['renderer']}")
         counts = [collections.Counter(t["family"] for t in label_curves(ds[v]) if len(t["uv"]) >= 30)
@@ -67,13 +67,22 @@ def misses(folder, prior):
         if run is None or "error" in run:
             continue
         right = {m["true_a"] for m in run["matched"] if m["right"]}
+        sizes = {f: min(counts[0][f], counts[1][f]) for f in r["families_label"]}
         for f in r["families_label"]:
-            k = min(4, counts[0][f], counts[1][f])
+            k = min(4, sizes[f])
             labelled[k] += 1
             missed[k] += f not in right
+        pairs["evaluated"] += 1
+        pairs["two"] += any(k == 2 for k in sizes.values())
+        answered_right = not run["ambiguous"] and run["families_right"]
+        pairs["same"] += answered_right and run["same_families"]
+        pairs["only two lost"] += answered_right and all(sizes[x["family"]] == 2 for x in run["families_lost"])
     print("lines in the sparser view | label families | not matched right")
     for k in sorted(labelled):
         print(f"{'4+' if k == 4 else k} | {labelled[k]} | {missed[k]}")
+    print(f"pairs: {pairs['evaluated']} evaluated, {pairs['two']} with a label family of two lines in a view; answered "
+          f"with every matched family right: the same families in {pairs['same']}, and in {pairs['only two lost']} "
+          "if the families of two lines they lose were found")
     causes = collections.Counter(
         x["cause"].split(": ", 1)[-1] for r in _load(folder).values() for run in [_run(r, prior)]
         if run is not None and "error" not in run for x in run["families_lost"] if x["family"] in r["families_label_3"])
