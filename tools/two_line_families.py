@@ -18,6 +18,11 @@ of B's, A's second with the other) so that each pair has the same polarity (ligh
 step) and the rays of each line's ends meet the other view's plane in front of the rig, the two
 3-D intervals overlapping by at least a fifth of the shorter: one segment seen twice, by the
 answer's translation (a direction for a central rig: the test does not depend on the scale).
+Last, the same-segment sets are counted by how alike their two pairs of lines look (the larger of
+the two pairs' colour distances, :func:`catadioptric.detect.appearance.side_distance` of the
+detections' ``sides``), per bound D: the sets kept, those of one labelled family, those whose two
+pairs are each one labelled segment seen twice, the pairs with a set kept and those whose kept
+sets are all of one labelled family.
 """
 from __future__ import annotations
 
@@ -61,6 +66,7 @@ def _pair(args):
     data, config, index = args
     from catadioptric.dataset import Dataset
     from catadioptric.detect import detect_lines
+    from catadioptric.detect.appearance import side_distance
     from catadioptric.detect.evaluate import _match_lines, label_curves
     from catadioptric.twoview import pose_from_detections
 
@@ -76,13 +82,14 @@ def _pair(args):
     da, db = dets
     taken = [{i for a, _ in res.family_map.values() for i in da.families[a].lines},
              {i for b in res.family_map for i in db.families[b].lines}]
-    free, fam = [], []
+    free, fam, segment = [], [], []
     for side, (d, v) in enumerate(zip(dets, views)):
         truth = label_curves(v)
         m, _ = _match_lines([np.asarray(u) for u in d.uv], truth, 1.5, 0.5)
         f = [i for i in range(len(d)) if i not in taken[side] and len(d.uv[i]) >= 30]
         free.append(f)
         fam.append({i: truth[m[i]]["family"] if m[i] >= 0 else None for i in f})
+        segment.append({i: truth[m[i]]["segment"] if m[i] >= 0 else None for i in f})
     floor2 = np.sin(np.radians(0.1)) ** 2
     na = da.normal[free[0]]
     nb = db.normal[free[1]] @ R
@@ -97,6 +104,14 @@ def _pair(args):
 
     n = dict.fromkeys(("sets", "true", "same_segment", "same_segment_true"), 0)
     found = set()
+    looks = []  # per same-segment set: (true, both pairs one labelled segment, the larger side distance)
+
+    def look(i, j):
+        return float(side_distance(da.sides[free[0][i]], db.sides[free[1][j]]))
+
+    def one_segment(i, j):
+        a, b = segment[0][free[0][i]], segment[1][free[1][j]]
+        return a is not None and a == b
     for i, k in itertools.combinations(range(len(na)), 2):
         s = np.cross(na[i], na[k])
         if np.linalg.norm(s) < np.sin(np.radians(5.0)):
@@ -106,14 +121,19 @@ def _pair(args):
         for j, l in itertools.combinations(np.flatnonzero(x2 <= 9.0), 2):
             f = {fam[0][free[0][i]], fam[0][free[0][k]], fam[1][free[1][j]], fam[1][free[1][l]]}
             true = len(f) == 1 and None not in f
-            ok = (seg(i, j) and seg(k, l)) or (seg(i, l) and seg(k, j))
+            pairings = [p for p in (((i, j), (k, l)), ((i, l), (k, j))) if seg(*p[0]) and seg(*p[1])]
+            ok = bool(pairings)
+            if ok:
+                dist = min(max(look(*p[0]), look(*p[1])) for p in pairings)
+                looks.append((bool(true), any(one_segment(*p[0]) and one_segment(*p[1]) for p in pairings),
+                              dist if np.isfinite(dist) else 1e9))
             n["sets"] += 1
             n["true"] += true
             n["same_segment"] += ok
             n["same_segment_true"] += ok and true
             if true:
                 found |= f
-    return out | n | {"free_lines": [len(free[0]), len(free[1])], "true_families": sorted(found)}
+    return out | n | {"free_lines": [len(free[0]), len(free[1])], "true_families": sorted(found), "looks": looks}
 
 
 def _default_pairs(data):
@@ -143,6 +163,7 @@ def main() -> None:
     pairs = ([(c, int(p)) for c, p in (x.split(":") for x in args.only.split(","))] if args.only
              else _default_pairs(args.data))
     total = dict.fromkeys(("pairs", "sets", "true", "same_segment", "same_segment_true"), 0)
+    looks_by_pair = {}
     print("pair | renderer | free lines A/B | 2+2 sets | of one labelled family | same-segment sets | of one "
           "labelled family")
     with ProcessPoolExecutor(args.workers) as ex:
@@ -153,10 +174,21 @@ def main() -> None:
             print(f"{r['pair']} | {r['renderer']} | {r['free_lines'][0]}/{r['free_lines'][1]} | {r['sets']} | "
                   f"{r['true']} | {r['same_segment']} | {r['same_segment_true']}", flush=True)
             total["pairs"] += 1
+            looks_by_pair[r["pair"]] = r["looks"]
             for k in ("sets", "true", "same_segment", "same_segment_true"):
                 total[k] += r[k]
     print(f"total over {total['pairs']} pairs: {total['sets']} sets agree, {total['true']} of one labelled family; "
           f"{total['same_segment']} pass the same-segment test, {total['same_segment_true']} of one labelled family")
+    print("same-segment sets whose two pairs of lines also look alike (the larger of their two side distances, "
+          "detect.appearance.side_distance, at most D grey levels):")
+    print("D | sets kept | of one labelled family | both pairs one labelled segment | pairs with a set kept | "
+          "pairs whose kept sets are all of one labelled family")
+    for D in (5, 10, 15, 20, 30, 1e9):
+        kept = [(t, g) for lk in looks_by_pair.values() for t, g, d in lk if d <= D]
+        with_set = [lk for lk in looks_by_pair.values() if any(d <= D for _, _, d in lk)]
+        clean = [lk for lk in with_set if all(t for t, _, d in lk if d <= D)]
+        print(f"{'any' if D == 1e9 else D} | {len(kept)} | {sum(t for t, _ in kept)} | {sum(g for _, g in kept)} | "
+              f"{len(with_set)} | {len(clean)}")
 
 
 if __name__ == "__main__":
