@@ -55,11 +55,9 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
     ``max_rotation_deg``: a prior on the motion (see :func:`catadioptric.pose.relative_pose`):
     without it the symmetric answers of a Manhattan scene usually leave the result ``ambiguous``.
     ``decisive``, ``decisive_matching``: see :func:`catadioptric.pose.relative_pose`. ``joint``:
-    the families left unmatched completed across the views and those of the lines left over found
-    in both views at once (:func:`pose_from_detections`). ``covariance_scale``: the answer's
-    covariance is that of the fit times its square (default :data:`COVARIANCE_SCALE`, measured on
-    rendered pairs; 1: the fit's own). Raises :class:`CatadioptricError` naming the cause when a
-    view has fewer than two families.
+    families of the lines left over found in both views at once (:func:`pose_from_detections`).
+    ``covariance_scale``: the answer's covariance is that of the fit times its square (default
+    :data:`COVARIANCE_SCALE`, measured on rendered pairs; 1: the fit's own). Raises :class:`CatadioptricError` naming the cause when a view has fewer than two families.
     """
     from .detect import detect_lines
 
@@ -94,12 +92,10 @@ def pose_from_detections(det_a, det_b, *, min_pixels: int = 30, max_rotation_deg
     ``covariance_scale ** 2``, the notes say so. The joint families and the guard below use the
     fit's own deviations.
 
-    With ``joint`` and a first answer that is not ambiguous, the families of one view that the answer
-    left unmatched are completed in the other under the answer's rotation
-    (:func:`catadioptric.detect.joint_families.guided_families`: the other view's lines that hold
-    the direction, too few for its own vote), the lines still left over are grouped in both views
-    at once (:func:`catadioptric.detect.joint_families.joint_families`: two lines in each view make
-    a family that one image alone cannot show), and when either finds
+    With ``joint`` and a first answer that is not ambiguous, the lines that no matched family holds
+    are then grouped in both views at once
+    under the answer's rotation (:func:`catadioptric.detect.joint_families.joint_families`: two
+    lines in each view make a family that one image alone cannot show), and when that finds
     families the pose is estimated again with them added to both detections (the search of
     :func:`catadioptric.pose.relative_pose` starts anew: the added families are not taken as
     matched). That second answer is kept only when it is decisive and its rotation lies within
@@ -118,7 +114,7 @@ def pose_from_detections(det_a, det_b, *, min_pixels: int = 30, max_rotation_deg
 
 
 def _pose_from_detections(det_a, det_b, min_pixels, max_rotation_deg, decisive, decisive_matching, seed, joint):
-    from .detect.joint_families import guided_families, joint_families, with_families
+    from .detect.joint_families import joint_families, with_families
     from .pose import relative_pose, rotation_angle_deg
 
     if not (isinstance(min_pixels, (int, np.integer)) and min_pixels >= 2):
@@ -145,28 +141,16 @@ def _pose_from_detections(det_a, det_b, min_pixels, max_rotation_deg, decisive, 
         return ImagePairPose(pose, dets, fmap)
     taken_a = [i for a, _ in fmap.values() for i in det_a.families[a].lines]
     taken_b = [i for b in fmap for i in det_b.families[b].lines]
-    known = [det_a.families[a].direction for a, _ in fmap.values()]
-    guided = guided_families(det_a, det_b, pose.R, taken_a=taken_a, taken_b=taken_b, min_pixels=min_pixels,
-                             rotation_std_deg=_finite_std(pose), known_directions=known)
-    taken_a = [*taken_a, *(i for f in guided for i in f.lines_a)]
-    taken_b = [*taken_b, *(i for f in guided for i in f.lines_b)]
-    joint_found = joint_families(det_a, det_b, pose.R, taken_a=taken_a, taken_b=taken_b, min_pixels=min_pixels,
-                                 rotation_std_deg=_finite_std(pose),
-                                 known_directions=[*known, *(f.direction for f in guided)])
-    found = [*guided, *joint_found]
+    found = joint_families(det_a, det_b, pose.R, taken_a=taken_a, taken_b=taken_b, min_pixels=min_pixels,
+                           rotation_std_deg=_finite_std(pose),
+                           known_directions=[det_a.families[a].direction for a, _ in fmap.values()])
     if not found:
         return ImagePairPose(pose, dets, fmap)
     new_a, _ = with_families(det_a, [(f.lines_a, f.direction) for f in found])
     new_b, _ = with_families(det_b, [(f.lines_b, pose.R @ f.direction) for f in found])
     pose2 = estimate((new_a, new_b))
-    parts = []
-    if guided:
-        parts.append(f"{len(guided)} families of one view completed in the other under the first answer's rotation "
-                     f"(lines in A / B: {', '.join(f'{len(f.lines_a)}/{len(f.lines_b)}' for f in guided)})")
-    if joint_found:
-        parts.append(f"{len(joint_found)} families found in both views at once under the first answer's rotation "
-                     f"(lines in A / B: {', '.join(f'{len(f.lines_a)}/{len(f.lines_b)}' for f in joint_found)})")
-    what = "; ".join(parts)
+    what = (f"{len(found)} families found in both views at once under the first answer's rotation (lines in A / "
+            f"B: {', '.join(f'{len(f.lines_a)}/{len(f.lines_b)}' for f in found)})")
     # the families were found under the first answer's rotation: estimated again with them, the
     # pose may refine it, not leave it (on the held-out elliptic pair p00 one such family moved a
     # decisive answer from 0.35 to 1.93 degrees off, 2.27 degrees, 20 combined claimed deviations)
@@ -347,8 +331,8 @@ def register(sub) -> None:
                         "different one (default: 35 when at most 24 family assignments are tried, 60 beyond; "
                         "chance agreements of the matching, docs/relative_pose.md)")
     p.add_argument("--no-joint-families", action="store_true",
-                   help="do not look for the families that only both images together show (a family of one "
-                        "image completed in the other, two lines in each; docs/relative_pose.md)")
+                   help="do not look for the families that only both images together show (two lines in each; "
+                        "docs/relative_pose.md)")
     p.add_argument("--denoise", choices=["auto", "nlmeans", "bilateral", "none"],
                    help="denoising before the edges (default auto)")
     p.set_defaults(func=_run)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from catadioptric.detect import DetectedLines, Family
-from catadioptric.detect.joint_families import guided_families, joint_families, with_families
+from catadioptric.detect.joint_families import joint_families, with_families
 from catadioptric.linefit import fit_interpretation_plane
 from catadioptric.pose import rotation_angle_deg
 from catadioptric.rigspec import load_rig
@@ -113,54 +113,3 @@ def test_a_bad_rotation_is_named(views):
     cam, segs, R, det_a, wa, det_b, wb = views
     with pytest.raises(CatadioptricError, match=r"R: expected a finite 3x3 rotation, got an array of shape \(2, 2\)"):
         joint_families(det_a, det_b, np.eye(2))
-
-
-def _with_family(det, which, segments, direction):
-    """``det`` with its lines of ``segments`` (indices into the scene) made a second family."""
-    from dataclasses import replace
-
-    lines = [i for i, k in enumerate(which) if k in segments]
-    family = det.family.copy()
-    family[lines] = 1
-    fam = Family(direction=np.asarray(direction, float), cov=np.eye(3) * 1e-8, lines=lines, pixels=0)
-    return replace(det, family=family, families=[*det.families, fam])
-
-
-def test_a_family_of_one_view_is_completed_in_the_other(views):
-    """The two lines along SMALL grouped in A only (as the detector might, with a third line of the
-    direction it missed): under the right rotation B's two lines that hold the direction join them;
-    under a rotation 20 degrees off, not those."""
-    cam, segs, R, det_a, wa, det_b, wb = views
-    det_a2 = _with_family(det_a, wa, (6, 7), SMALL)
-    found = guided_families(det_a2, det_b, R, taken_a=det_a.families[0].lines, taken_b=det_b.families[0].lines,
-                            rotation_std_deg=0.05, known_directions=[[0, 0, 1.0]])
-    assert len(found) == 1
-    f = found[0]
-    assert sorted(wa[i] for i in f.lines_a) == [6, 7]
-    assert {6, 7} <= {wb[i] for i in f.lines_b} and len(f.lines_b) <= 3
-    assert np.degrees(np.arccos(min(1.0, abs(f.direction @ SMALL)))) < 1e-9
-    wrong = R @ Rotation.from_rotvec(np.radians([0, 0, 20.0])).as_matrix()
-    for g in guided_families(det_a2, det_b, wrong, taken_a=det_a.families[0].lines,
-                             taken_b=det_b.families[0].lines, rotation_std_deg=0.05, known_directions=[[0, 0, 1.0]]):
-        assert not {6, 7} <= {wb[i] for i in g.lines_b}
-    # a matched family's direction is not a new family's
-    assert guided_families(det_a2, det_b, R, taken_a=det_a.families[0].lines, taken_b=det_b.families[0].lines,
-                           rotation_std_deg=0.05, known_directions=[[0, 0, 1.0], SMALL]) == []
-
-
-def test_a_family_that_loses_lines_to_a_new_one_is_dropped(views):
-    """A family of B made of the two SMALL lines and two vertical ones (a blend): once the SMALL
-    lines go to a family of their own, the vertical two are left unassigned, not kept as a family
-    with the blend's direction."""
-    cam, segs, R, det_a, wa, det_b, wb = views
-    from dataclasses import replace
-
-    blend = [i for i, k in enumerate(wb) if k in (6, 7, 0, 1)]
-    family = np.full(len(wb), -1)
-    family[blend] = 0
-    det = replace(det_b, family=family, families=[Family(direction=R @ SMALL, cov=np.eye(3) * 1e-8, lines=blend,
-                                                         pixels=0)])
-    small = [i for i, k in enumerate(wb) if k in (6, 7)]
-    new, idx = with_families(det, [(small, R @ SMALL)])
-    assert idx == [0] and len(new.families) == 1 and sorted(new.families[0].lines) == sorted(small)
-    assert np.all(new.family[[i for i in blend if i not in small]] == -1)

@@ -189,17 +189,16 @@ def test_cli_errors_are_one_line(street, tmp_path, capsys):
 
 
 def test_families_only_both_images_show(street):
-    """After a decisive answer, a family of one image that the answer left unmatched is completed in
-    the other under its rotation (the lines there too few for that image's own vote); on this pair
-    that gives one more family (3 lines in A, 5 in B), which is then matched (docs/relative_pose.md,
-    'Families only both images show')."""
+    """After a decisive answer, lines no family of one image holds are grouped in both images at
+    once under its rotation; on this pair that finds one more family, which is then matched
+    (docs/relative_pose.md, 'Families only both images show')."""
     _, a, b, R_gt, _ = street
     alone = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0, joint=False)
     both = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0)
-    assert not any("under the first answer's rotation" in n for n in alone.pose.notes)
-    assert any("completed in the other under the first answer's rotation" in n for n in both.pose.notes), \
-        both.pose.notes
+    assert not any("both views at once" in n for n in alone.pose.notes)
+    assert any("both views at once" in n for n in both.pose.notes), both.pose.notes
     assert len(both.family_map) == len(alone.family_map) + 1
+    assert len(both.detections[0].families) > len(alone.detections[0].families)
     for res in (alone, both):
         assert not res.pose.ambiguous and rotation_angle_deg(res.pose.R @ R_gt.T) < 0.5
 
@@ -215,7 +214,7 @@ def test_the_answer_with_families_of_both_images_must_agree_with_the_first(stree
     alone = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0, joint=False)
     monkeypatch.setattr(tv, "_JOINT_AGREE_SIGMA", 1e-9)
     res = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0)
-    note = next(n for n in res.pose.notes if "under the first answer's rotation" in n)
+    note = next(n for n in res.pose.notes if "both views at once" in n)
     assert "not kept, the pose estimated again with them turns" in note and "combined deviations" in note
     assert np.array_equal(res.pose.R, alone.pose.R) and res.family_map == alone.family_map
     assert len(res.detections[0].families) == len(alone.detections[0].families)
@@ -229,4 +228,4 @@ def test_no_families_are_looked_for_under_an_ambiguous_answer(street):
     res = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0,
                                     decisive_matching=10000.0)
     assert res.pose.ambiguous
-    assert not any("under the first answer's rotation" in n for n in res.pose.notes)
+    assert not any("both views at once" in n for n in res.pose.notes)

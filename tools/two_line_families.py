@@ -18,11 +18,12 @@ of B's, A's second with the other) so that each pair has the same polarity (ligh
 step) and the rays of each line's ends meet the other view's plane in front of the rig, the two
 3-D intervals overlapping by at least a fifth of the shorter: one segment seen twice, by the
 answer's translation (a direction for a central rig: the test does not depend on the scale).
-Last, the same-segment sets are counted by how alike their two pairs of lines look (the larger of
-the two pairs' colour distances, :func:`catadioptric.detect.appearance.side_distance` of the
-detections' ``sides``), per bound D: the sets kept, those of one labelled family, those whose two
-pairs are each one labelled segment seen twice, the pairs with a set kept and those whose kept
-sets are all of one labelled family.
+With ``tools/matching_variants/appearance_gate.patch`` applied (``git apply``: each detected line
+carries the colours either side of it, ``DetectedLines.sides``), the same-segment sets are also
+counted by how alike their two pairs of lines look (the larger of the two pairs' colour distances,
+``catadioptric.pose.matching.side_distance``), per bound D: the sets kept, those of one labelled
+family, those whose two pairs are each one labelled segment seen twice, the pairs with a set kept
+and those whose kept sets are all of one labelled family.
 """
 from __future__ import annotations
 
@@ -66,7 +67,6 @@ def _pair(args):
     data, config, index = args
     from catadioptric.dataset import Dataset
     from catadioptric.detect import detect_lines
-    from catadioptric.detect.appearance import side_distance
     from catadioptric.detect.evaluate import _match_lines, label_curves
     from catadioptric.twoview import pose_from_detections
 
@@ -107,11 +107,16 @@ def _pair(args):
     looks = []  # per same-segment set: (true, both pairs one labelled segment, the larger side distance)
 
     def look(i, j):
+        if getattr(da, "sides", None) is None:
+            return float("nan")  # the appearance patch is not applied
+        from catadioptric.pose.matching import side_distance
+
         return float(side_distance(da.sides[free[0][i]], db.sides[free[1][j]]))
 
     def one_segment(i, j):
         a, b = segment[0][free[0][i]], segment[1][free[1][j]]
         return a is not None and a == b
+
     for i, k in itertools.combinations(range(len(na)), 2):
         s = np.cross(na[i], na[k])
         if np.linalg.norm(s) < np.sin(np.radians(5.0)):
@@ -179,8 +184,10 @@ def main() -> None:
                 total[k] += r[k]
     print(f"total over {total['pairs']} pairs: {total['sets']} sets agree, {total['true']} of one labelled family; "
           f"{total['same_segment']} pass the same-segment test, {total['same_segment_true']} of one labelled family")
+    if not any(d < 1e9 for lk in looks_by_pair.values() for *_, d in lk):
+        return
     print("same-segment sets whose two pairs of lines also look alike (the larger of their two side distances, "
-          "detect.appearance.side_distance, at most D grey levels):")
+          "pose.matching.side_distance, at most D grey levels; needs tools/matching_variants/appearance_gate.patch):")
     print("D | sets kept | of one labelled family | both pairs one labelled segment | pairs with a set kept | "
           "pairs whose kept sets are all of one labelled family")
     for D in (5, 10, 15, 20, 30, 1e9):

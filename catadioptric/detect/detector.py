@@ -1,6 +1,5 @@
 """``detect_lines``: one image of a rig -> its line curves and families (the stages in order:
-image, region, edges, band centres, chains, line curves, families, the colours either side of
-each line)."""
+image, region, edges, band centres, chains, line curves, families)."""
 from __future__ import annotations
 
 import time
@@ -8,7 +7,6 @@ import time
 import numpy as np
 
 from .._checks import CatadioptricError, as_count, as_scalar
-from .appearance import line_sides
 from .centres import Centres, pair_edges, step_edges
 from .chains import join_chains, link_chains
 from .curves import line_covariance, merge_pieces, order_along, split_chain
@@ -152,11 +150,9 @@ def detect_lines(image, cam, **options) -> DetectedLines:
                                       ends=np.array([[u[0], u[-1]] for u in uv]).reshape(-1, 2, 2),
                                       concurrency_px=o["concurrency_px"])
     lap("families")
-    sides = line_sides(chan, uv, width)
-    lap("sides")
     seconds["total"] = float(sum(seconds.values()))
     return DetectedLines(cam=cam, uv=uv, normal=normals, normal_cov=covs, rms=np.array(rms), polarity=np.array(pol),
                          width=np.array(width), family=family, families=families, image_size=(W, H),
                          noise={"image": noise_in, "denoised": noise_out}, denoise=mode,
                          chains=[c["uv"] for c in chains], seconds=seconds,
-                         options={k: v for k, v in o.items()}, sides=sides)
+                         options={k: v for k, v in o.items()})

@@ -23,12 +23,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import gammaln
 
 from .._checks import CatadioptricError
 from .families import Family, _concurrent, _log_nfa, _refine, group_families
 
-__all__ = ["JointFamily", "joint_families", "guided_families", "with_families"]
+__all__ = ["JointFamily", "joint_families", "with_families"]
 
 
 @dataclass
@@ -109,106 +108,11 @@ def _log_nfa_distinct(N, C, s, n_free, chi2_max, angle_floor_deg):
     return _log_nfa(band[kept], n_free)
 
 
-def guided_families(det_a, det_b, R, *, taken_a=(), taken_b=(), rotation_std_deg: float = 0.0, min_pixels: int = 0,
-                    min_lines: int = 2, chi2_max: float = 9.0, angle_floor_deg: float = 0.1,
-                    max_log_nfa: float = -4.0, concurrency_px: float = 5.0, merge_deg: float = 2.0,
-                    known_directions=()) -> list[JointFamily]:
-    """A family one view found that the answer left unmatched, completed in the other view: its
-    direction, carried over by ``R`` (``x_B = R x_A + t``), is no longer a guess, so the other view's
-    lines that hold it make its family there even when they are too few for that view's own vote.
-
-    Each family of either detection whose lines (of ``min_pixels`` or more) are in no matched family
-    (not in ``taken_a`` / ``taken_b``) and number two or more gives a direction ``s`` (A's frame);
-    the other view's free lines whose planes hold ``s`` (chi-square at most ``chi2_max``, the
-    detector's vote's test; B's planes turned into A's frame with the rotation's own error,
-    ``rotation_std_deg``, across each normal, as :func:`joint_families`) are its lines there when
-    there are ``min_lines`` or more, they are not concurrent, ``s`` is not within ``merge_deg`` of
-    ``known_directions`` (the matched families') and chance makes so many agree rarely: the log
-    number of false alarms ``log T + log C(n, k) + sum log e_i`` is at most ``max_log_nfa`` (``T``
-    the families tested, ``n`` the other view's free lines, ``k`` those that agree, ``e_i`` the
-    probability that line ``i``'s plane holds a given direction by chance, its band of agreement).
-    A line that holds a matched family's direction is left out (it is that family's, or cannot be
-    told). Families are taken most significant first; a line goes to one family at most (a family
-    whose lines another took is not made). Returns them as
-    :class:`JointFamily` (direction in A's frame, the family's own lines in its view)."""
-    R = np.asarray(R, float)
-    if R.shape != (3, 3) or not np.all(np.isfinite(R)):
-        raise CatadioptricError(f"R: expected a finite 3x3 rotation, got an array of shape {R.shape}")
-    dets = (det_a, det_b)
-    taken = (set(int(i) for i in taken_a), set(int(i) for i in taken_b))
-    free = [[i for i in range(len(d)) if i not in tk and len(d.uv[i]) >= min_pixels] for d, tk in zip(dets, taken)]
-    # each view's planes in A's frame: B's turned by R^T, their covariances grown by the rotation's error
-    N = [det_a.normal, det_b.normal @ R]
-    C = [det_a.normal_cov, np.einsum("ji,njk,kl->nil", R, det_b.normal_cov, R)]
-    C[1] = C[1] + np.radians(rotation_std_deg) ** 2 * (np.eye(3)[None] - N[1][:, :, None] * N[1][:, None, :])
-    floor2 = np.sin(np.radians(angle_floor_deg)) ** 2
-    sources = []
-    for v, d in enumerate(dets):
-        fv = set(free[v])
-        for fam in d.families:
-            own = [i for i in fam.lines if i in fv]
-            if len(own) >= 2:
-                s = fam.direction if v == 0 else R.T @ fam.direction
-                sources.append((v, own, s / np.linalg.norm(s)))
-    if not sources:
-        return []
-    log_tests = np.log(len(sources))
-    known = np.asarray(known_directions, float).reshape(-1, 3)
-
-    def agrees(w, idx, S):
-        """``(len(S), len(idx))``: whether each line ``idx`` of view ``w`` holds each direction ``S``."""
-        var = np.einsum("hi,lij,hj->hl", S, C[w][idx], S) + floor2
-        return (S @ N[w][idx].T) ** 2 <= chi2_max * var, var
-
-    # a line that holds a matched family's direction is that family's or unknown: never a new one's
-    spare = []
-    for w in (0, 1):
-        idx = np.array(free[w], int)
-        hold = agrees(w, idx, known)[0].any(axis=0) if len(known) and len(idx) else np.zeros(len(idx), bool)
-        spare.append(idx[~hold])
-    found = []
-    for v, own, s in sources:
-        w = 1 - v
-        if len(known) and np.degrees(np.arccos(np.clip(np.max(np.abs(known @ s)), 0.0, 1.0))) < merge_deg:
-            continue
-        cand = spare[w]
-        if len(cand) < min_lines:
-            continue
-        ok, var = agrees(w, cand, s[None])
-        agree = cand[ok[0]]
-        if len(agree) < min_lines:
-            continue
-        n, k = len(cand), len(agree)
-        eps = np.minimum(np.sqrt(chi2_max * var[0, ok[0]]), 1.0)
-        log_nfa = log_tests + gammaln(n + 1) - gammaln(k + 1) - gammaln(n - k + 1) + float(np.sum(np.log(eps)))
-        if log_nfa > max_log_nfa:
-            continue
-        s_w = s if w == 0 else R @ s
-        if concurrency_px > 0 and _concurrent(dets[w].cam, s_w, _ends(dets[w], agree), concurrency_px):
-            continue
-        found.append((log_nfa, v, own, [int(i) for i in agree], s))
-    # the most significant first; a line goes to one family at most
-    claimed = (set(), set())
-    out = []
-    for _, v, own, agree, s in sorted(found, key=lambda x: x[0]):
-        w = 1 - v
-        if any(i in claimed[v] for i in own) or any(i in claimed[w] for i in agree):
-            continue
-        claimed[v].update(own)
-        claimed[w].update(agree)
-        la, lb = (own, agree) if v == 0 else (agree, own)
-        out.append(JointFamily(direction=s, lines_a=la, lines_b=lb))
-    return out
-
-
 def with_families(det, new_families, min_lines: int = 2):
     """A copy of detection ``det`` with each ``(lines, direction)`` of ``new_families`` made a new
     family (its direction refitted on its lines' planes from ``direction``), after its existing
-    families (each refitted on its lines); the lines move from wherever they were. An existing
-    family that loses lines to a new one is dropped and the lines it keeps left unassigned: its
-    direction was fitted to lines of two directions (on the benchmark's sphere pair p17, a family
-    of B 41 degrees from its lines' true direction kept 2 of its 6 lines and was matched to a
-    family of A it is not). ``min_lines``: a family is made of at least this many lines. Returns
+    families (each refitted on the lines it keeps); the lines move from wherever they were, and
+    an existing family left with fewer than ``min_lines`` lines is dropped. Returns
     ``(detection, indices of the new families)``."""
     from dataclasses import replace
 
@@ -217,7 +121,7 @@ def with_families(det, new_families, min_lines: int = 2):
     families = []
     for fam in det.families:
         keep = [i for i in fam.lines if i not in moved]
-        if len(keep) < len(fam.lines) or len(keep) < min_lines:
+        if len(keep) < min_lines:
             continue
         s, cov = _refine(det.normal, det.normal_cov, np.array(keep), fam.direction)
         family[keep] = len(families)

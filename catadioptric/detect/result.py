@@ -20,8 +20,7 @@ class DetectedLines:
     ``d`` of its pixels; docs/detect.md) with ``normal_cov[i] (3, 3)``, ``rms[i]`` the pixels'
     distance to that plane's curve (pixels), ``polarity[i]`` (+1 a light band, -1 a dark band,
     0 a step edge), ``width[i]`` the band's median width (pixels, 0 for a step edge) and
-    ``family[i]``: an index into ``families`` or -1 (unassigned); ``sides[i] (2, C)`` the colour on
-    either side of its curve (:mod:`catadioptric.detect.appearance`; None when not measured).
+    ``family[i]``: an index into ``families`` or -1 (unassigned).
 
     ``families``: a list of :class:`catadioptric.detect.families.Family` (``direction``, ``cov``,
     ``lines``, ``pixels``; direction signs arbitrary, keys meaningful in this view only).
@@ -45,7 +44,6 @@ class DetectedLines:
     chains: list = field(default_factory=list)
     seconds: dict = field(default_factory=dict)
     options: dict = field(default_factory=dict)
-    sides: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.uv)
@@ -87,7 +85,6 @@ class DetectedLines:
                           "lines": f.lines, "pixels": f.pixels} for k, f in enumerate(self.families)],
             "lines": [{"index": i, "family": int(self.family[i]), "uv": self.uv[i], "normal": self.normal[i],
                        "normal_cov": self.normal_cov[i], "rms": float(self.rms[i]),
-                       "polarity": int(self.polarity[i]), "width": float(self.width[i]),
-                       "sides": None if self.sides is None else self.sides[i]}
+                       "polarity": int(self.polarity[i]), "width": float(self.width[i])}
                       for i in range(len(self.uv))],
         }
