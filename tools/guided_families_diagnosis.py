@@ -14,8 +14,10 @@ pair: both views detected, the pose with the prior 60 and no families added (the
 then the completion as the patch runs it. Each completed family is *right* when its direction is
 within 1.5 degrees of a true family's (A's frame); printed with its significance, its lines in
 each view (their true families), the nearest matched direction, and its one-view source family's
-deviation, mean and largest chi-square of its lines, lines, pixels and longest line; then the
-range of each figure over the right and the wrong ones.
+deviation, mean and largest chi-square of its lines, lines, pixels and longest line, and how many
+of its lines in A (in B) have a line in the other view that could be one segment seen twice with
+them (``same_segment_a``, ``same_segment_b``: ``_same_segment`` of tools/two_line_families.py under
+the answer's translation); then the range of each figure over the right and the wrong ones.
 """
 from __future__ import annotations
 
@@ -27,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 FIGURES = ("log_nfa", "src_std_deg", "src_chi2_mean", "src_chi2_max", "src_lines", "src_pixels", "src_longest",
-           "near_matched_deg")
+           "near_matched_deg", "same_segment_a", "same_segment_b")
 
 
 def _pair(args):
@@ -37,6 +39,7 @@ def _pair(args):
     from catadioptric.detect.evaluate import _match_lines, label_curves
     from catadioptric.detect.families import _chi2
     from catadioptric.twoview import _finite_std, pose_from_detections
+    from two_line_families import _same_segment
 
     try:
         from catadioptric.detect.joint_families import guided_families
@@ -83,6 +86,12 @@ def _pair(args):
             row |= {"src_std_deg": float(fam.std_deg), "src_chi2_mean": float(np.mean(x2)),
                     "src_chi2_max": float(np.max(x2)), "src_lines": len(fam.lines), "src_pixels": int(sum(px)),
                     "src_longest": int(max(px))}
+        if res.pose.t is not None:
+            # lines of A with a line of B that could be the same segment seen twice, and of B with one
+            # of A (tools/two_line_families.py: same polarity, in front, overlapping along the line)
+            t = np.asarray(res.pose.t, float)
+            same = np.array([[_same_segment(da, i, db, j, res.pose.R, t) for j in f.lines_b] for i in f.lines_a])
+            row |= {"same_segment_a": int(same.any(axis=1).sum()), "same_segment_b": int(same.any(axis=0).sum())}
         out["families"].append(row)
     return out
 
