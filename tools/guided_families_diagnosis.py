@@ -17,7 +17,8 @@ each view (their true families), the nearest matched direction, and its one-view
 deviation, mean and largest chi-square of its lines, lines, pixels and longest line, and how many
 of its lines in A (in B) have a line in the other view that could be one segment seen twice with
 them (``same_segment_a``, ``same_segment_b``: ``_same_segment`` of tools/two_line_families.py under
-the answer's translation); then the range of each figure over the right and the wrong ones.
+the answer's translation), and the largest share of its lines in the other view that one family
+of that view's own detection held (``other_in_one_family``); then the range of each figure over the right and the wrong ones.
 """
 from __future__ import annotations
 
@@ -29,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 FIGURES = ("log_nfa", "src_std_deg", "src_chi2_mean", "src_chi2_max", "src_lines", "src_pixels", "src_longest",
-           "near_matched_deg", "same_segment_a", "same_segment_b")
+           "near_matched_deg", "same_segment_a", "same_segment_b", "other_in_one_family")
 
 
 def _pair(args):
@@ -86,6 +87,11 @@ def _pair(args):
             row |= {"src_std_deg": float(fam.std_deg), "src_chi2_mean": float(np.mean(x2)),
                     "src_chi2_max": float(np.max(x2)), "src_lines": len(fam.lines), "src_pixels": int(sum(px)),
                     "src_longest": int(max(px))}
+        # the completed lines of the other view: the largest share of them that one detected family
+        # of that view held (1: the other view had found the family too, the answer left it out)
+        d_other, lines_other = (db, f.lines_b) if src is not None and src[0] is da else (da, f.lines_a)
+        ks = [int(d_other.family[i]) for i in lines_other if d_other.family[i] >= 0]
+        row["other_in_one_family"] = max(ks.count(k) for k in set(ks)) / len(lines_other) if ks else 0.0
         if res.pose.t is not None:
             # lines of A with a line of B that could be the same segment seen twice, and of B with one
             # of A (tools/two_line_families.py: same polarity, in front, overlapping along the line)
