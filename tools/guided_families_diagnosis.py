@@ -3,9 +3,10 @@ completed in the other"): each family :func:`guided_families` completes under a 
 answer, scored by the labels, with the figures of the one-view family it starts from.
 
 Needs ``tools/matching_variants/guided_families.patch`` applied (in a worktree, say:
-``git worktree add /tmp/wt 7665a1f``, then ``PYTHONPATH=/tmp/wt``) and the benchmark's datasets.
+``git worktree add WT HEAD && git -C WT apply tools/matching_variants/guided_families.patch``, then
+``PYTHONPATH=WT``) and the benchmark's datasets.
 
-    PYTHONPATH=/tmp/wt .venv/bin/python tools/guided_families_diagnosis.py \\
+    PYTHONPATH=WT .venv/bin/python tools/guided_families_diagnosis.py \\
         [--only sphere:0,sphere:1,...] [--data render/out/relative_pose_benchmark] [--workers 2] [--json OUT]
 
 Default pairs: those whose image-path result in ``--results`` (default the data folder's
