@@ -16,12 +16,30 @@ the direction of every true family the view has labelled lines of, as the detect
 (two or more lines of ``--min-pixels`` in each view, ``families_label`` of the benchmark) is
 *identifiable* in a view when at least ``--lines`` of its lines identify it there.
 
+**Significance.** Two lines that identify a family are not yet a family a vote can find: any two
+planes meet along some direction, so the detector's vote (``detect.families``) asks that a family's
+lines be unlikely to agree by chance, a-contrario: ``log NFA <= -4`` over the lines still free, with
+three lines or more it can assign (agreeing with that family alone, a band of agreement at most 2
+degrees wide); the joint vote of the two views (``detect.joint_families``) asks ``log NFA <= -6``
+over *distinct* planes (a segment seen in both views counts once: its two planes nearly coincide)
+and two such lines in each view. This tool gives that vote every advantage: the labelled lines
+whole (every line of 20 pixels or more, the detector's search lines), the true directions as its
+hypotheses, no other edges. ``own``: each family with only its own lines free (no vote can do
+better); ``seq``: the vote's sequence, every labelled line free at first, the most significant
+family taken first and the lines that agree with it taken out, then the joint vote over the lines
+of no family found in both views. A pair counts when every label family (or every one with three
+lines or more in each view, ``families_label_3``) is found one view at a time or both at once. The
+bars can be changed (``--max-log-nfa``, ``--joint-max-log-nfa``) to see what a laxer vote, which
+also finds more families that are not there, could reach; ``--systematic 0.15`` adds the
+detector's error that does not average out along a line.
+
     .venv/bin/python tools/family_identifiability.py [--configs sphere,...] [--pairs 20] [--json OUT]
 
 Prints per configuration: label families, those identifiable in both views, the pairs whose
 every label family is (an upper bound for the image path's "same families" by any grouping by
-direction, one view at a time), and the lines that agree with two or more families. Labels and
-geometry only: no detection, a few seconds per view. Needs the benchmark's datasets.
+direction, one view at a time), and the lines that agree with two or more families; then the
+significance table. Labels and geometry only: no detection, a few seconds per view. Needs the
+benchmark's datasets.
 """
 from __future__ import annotations
 
@@ -38,9 +56,13 @@ from catadioptric.linefit.planes import pixel_rays_with_jacobian, plane_covarian
 from catadioptric.validate.benchmark_spec import load_benchmark_spec, pairs_of
 
 
-def view_lines(view, min_pixels: int, sigma: float, chi2_max: float = 9.0, floor_deg: float = 0.1) -> list[dict]:
-    """Each labelled line of at least ``min_pixels`` pixels: its family and the true families it
-    agrees with."""
+def view_lines(view, min_pixels: int, sigma: float, chi2_max: float = 9.0, floor_deg: float = 0.1,
+               systematic_px: float = 0.0) -> list[dict]:
+    """Each labelled line of at least ``min_pixels`` pixels: its family, the true families it
+    agrees with, and the width of its band of agreement about its own family's direction
+    (``band_rad``: ``sqrt(chi2_max (s^T C s + floor^2))``, the detector's vote, ``detect.families``).
+    ``systematic_px``: the detector's error that does not average out along a line
+    (``detect.curves.line_covariance``)."""
     dirs = {int(f["index"]): np.asarray(f["direction_M"], float) for f in view["families"]}
     lines = [t for t in label_curves(view) if len(t["uv"]) >= min_pixels]
     present = sorted({t["family"] for t in lines})
@@ -53,30 +75,109 @@ def view_lines(view, min_pixels: int, sigma: float, chi2_max: float = 9.0, floor
             continue
         n = refine_plane(rays)
         C = plane_covariance(n, rays, sigma)
-        chi2 = (S @ n) ** 2 / (np.einsum("hi,ij,hj->h", S, C, S) + floor2)
+        if systematic_px > 0:
+            C = C + plane_covariance(n, rays, systematic_px) * (int(rays.ok.sum()) / 2.0)
+        var = np.einsum("hi,ij,hj->h", S, C, S) + floor2
+        chi2 = (S @ n) ** 2 / var
+        own = present.index(t["family"])
         out.append({"segment": t["segment"], "family": t["family"], "pixels": len(t["uv"]),
                     "agrees": [f for f, c in zip(present, chi2) if c <= chi2_max],
-                    "chi2_own": float(chi2[present.index(t["family"])])})
+                    "chi2_own": float(chi2[own]), "band_rad": float(np.sqrt(chi2_max * var[own]))})
     return out
 
 
-def pair_row(ds, names, min_pixels, sigma, need) -> dict:
-    per_view = [view_lines(ds[n], min_pixels, sigma) for n in names]
+def pair_row(ds, names, min_pixels, sigma, need, search_pixels=20, systematic_px=0.0) -> dict:
+    per_view = [view_lines(ds[n], search_pixels, sigma, systematic_px=systematic_px) for n in names]
+    long_ = [[ln for ln in lines if ln["pixels"] >= min_pixels] for lines in per_view]
     count = [{} for _ in names]
     ident = [{} for _ in names]
-    for k, lines in enumerate(per_view):
+    for k, lines in enumerate(long_):
         for ln in lines:
             count[k][ln["family"]] = count[k].get(ln["family"], 0) + 1
             if ln["agrees"] == [ln["family"]]:
                 ident[k][ln["family"]] = ident[k].get(ln["family"], 0) + 1
     label = sorted(f for f in count[0] if count[0][f] >= 2 and count[1].get(f, 0) >= 2)
+    label_3 = [f for f in label if min(count[0][f], count[1][f]) >= 3]
     ok = [f for f in label if all(ident[k].get(f, 0) >= need for k in range(2))]
-    shared = [sum(1 for ln in lines if len(ln["agrees"]) > 1) for lines in per_view]
-    own_off = [sum(1 for ln in lines if ln["family"] not in ln["agrees"]) for lines in per_view]
-    return {"families_label": label, "identifiable": ok,
+    shared = [sum(1 for ln in lines if len(ln["agrees"]) > 1) for lines in long_]
+    own_off = [sum(1 for ln in lines if ln["family"] not in ln["agrees"]) for lines in long_]
+    return {"families_label": label, "families_label_3": label_3, "identifiable": ok,
             "not_identifiable": {str(f): [ident[k].get(f, 0) for k in range(2)] for f in label if f not in ok},
-            "lines": [len(v) for v in per_view], "lines_agreeing_with_several": shared,
-            "lines_off_own_family": own_off}
+            "lines": [len(v) for v in long_], "lines_agreeing_with_several": shared,
+            "lines_off_own_family": own_off, **significance(per_view, label)}
+
+
+def _one_view(lines, f, free):
+    """Family ``f`` in one view as the detector's vote sees it at best: the log NFA of its free lines
+    that agree with it (among ``free`` lines, at least its own) and how many could be assigned to it."""
+    from catadioptric.detect.families import _log_nfa
+
+    vote = [ln for ln in lines if f in ln["agrees"] and ln["family"] == f and ln["free"]]
+    eps = np.minimum([ln["band_rad"] for ln in vote], 1.0)
+    assignable = sum(1 for ln in lines if ln["family"] == f and ln["agrees"] == [f] and ln["band_rad"] <= _MAX_BAND)
+    return _log_nfa(np.asarray(eps, float), max(free, len(vote))), assignable
+
+
+def _vote(lines, label, pool):
+    """The label families one view's vote could find, by the true directions: ``pool`` ``"own"``:
+    each family with only its own lines free (no vote can do better); ``"seq"``: the vote's
+    sequence, every labelled line free at first, the most significant family taken first and the
+    lines that agree with it taken out."""
+    for ln in lines:
+        ln["free"] = True
+    if pool == "own":
+        return [f for f in label if (lambda r: r[0] <= _ONE_VIEW_LOG_NFA and r[1] >= 3)(_one_view(lines, f, 0))]
+    found, left = [], list(label)
+    while left:
+        n_free = sum(ln["free"] for ln in lines)
+        scored = sorted((_one_view(lines, f, n_free)[0], f) for f in left)
+        lg, f = scored[0]
+        if lg > _ONE_VIEW_LOG_NFA:
+            break
+        left.remove(f)
+        if _one_view(lines, f, n_free)[1] >= 3:
+            found.append(f)
+        for ln in lines:
+            if f in ln["agrees"]:
+                ln["free"] = False
+    return found
+
+
+def significance(per_view, label) -> dict:
+    """Whether each label family could be significant to the vote (module docstring, "Significance")."""
+    from catadioptric.detect.families import _log_nfa
+
+    out = {}
+    for pool in ("own", "seq"):
+        found = [set(_vote(lines, label, pool)) for lines in per_view]
+        one = [f for f in label if all(f in x for x in found)]
+        joint = []
+        for f in label:
+            if f in one:
+                continue
+            # in both views at once: a segment seen in both counts once (its two planes nearly coincide)
+            band = {}
+            for lines in per_view:
+                for ln in lines:
+                    if ln["family"] == f and f in ln["agrees"]:
+                        band[ln["segment"]] = min(band.get(ln["segment"], 1.0), ln["band_rad"])
+            # the joint vote's lines: those of no family found in both views
+            free = {ln["segment"] for lines in per_view for ln in lines
+                    if pool == "seq" and not any(g in one for g in ln["agrees"])}
+            lg = _log_nfa(np.minimum(list(band.values()), 1.0), max(len(free), len(band)))
+            per = [sum(1 for ln in lines if ln["family"] == f and ln["agrees"] == [f] and ln["band_rad"] <= _MAX_BAND)
+                   for lines in per_view]
+            if lg <= _JOINT_LOG_NFA and min(per) >= 2:
+                joint.append(f)
+        out[f"significant_{pool}"] = one
+        out[f"significant_joint_{pool}"] = joint
+    return out
+
+
+#: the detector's bars (``detect.families.group_families``, ``detect.joint_families``)
+_MAX_BAND = np.radians(2.0)
+_ONE_VIEW_LOG_NFA = -4.0
+_JOINT_LOG_NFA = -6.0
 
 
 def main() -> None:
@@ -87,9 +188,15 @@ def main() -> None:
     ap.add_argument("--data", default="render/out/relative_pose_benchmark")
     ap.add_argument("--sigma", type=float, default=0.5, help="pixel noise of each line's plane fit")
     ap.add_argument("--lines", type=int, default=2, help="lines that must identify a family in each view")
+    ap.add_argument("--max-log-nfa", type=float, default=-4.0, help="the one-view vote's bar (the detector's: -4)")
+    ap.add_argument("--joint-max-log-nfa", type=float, default=-6.0, help="the joint vote's bar (twoview's: -6)")
+    ap.add_argument("--systematic", type=float, default=0.0,
+                    help="pixel error that does not average out along a line (the detector's: 0.15)")
     ap.add_argument("--json", help="write the rows here")
     ap.add_argument("--from-json", help="print the table from these rows instead of computing them")
     args = ap.parse_args()
+    global _ONE_VIEW_LOG_NFA, _JOINT_LOG_NFA
+    _ONE_VIEW_LOG_NFA, _JOINT_LOG_NFA = args.max_log_nfa, args.joint_max_log_nfa
     if args.from_json:
         rows = json.loads(Path(args.from_json).read_text())
     else:
@@ -100,7 +207,7 @@ def main() -> None:
                 continue
             for p in pairs_of(spec, c)[:args.pairs]:
                 ds = Dataset(str(Path(args.data) / "datasets" / f"{c['name']}_{p.renderer}"))
-                r = pair_row(ds, p.names, spec["min_pixels"], args.sigma, args.lines)
+                r = pair_row(ds, p.names, spec["min_pixels"], args.sigma, args.lines, systematic_px=args.systematic)
                 rows.append({"config": c["name"], "pair": p.index, "renderer": p.renderer, **r})
         if args.json:
             atomic_write_json(args.json, rows)
@@ -119,6 +226,28 @@ def main() -> None:
     ni = sum(len(r["identifiable"]) for r in rows)
     npairs = sum(len(r["identifiable"]) == len(r["families_label"]) for r in rows)
     print(f"| all | {len(rows)} | {nl} | {ni} | {npairs} | |")
+    if "significant_own" not in rows[0]:
+        return
+    print()
+    print("Significance to the vote, at best (own: only the family's lines free; seq: the vote's sequence over "
+          "every labelled line); pairs whose every label family / every family of 3+ lines could be found:")
+    print("| configuration | pairs | label families | one view at a time (own / seq) | or both views at once "
+          "(own / seq) | pairs, every family (own / seq) | pairs, every family of 3+ lines (own / seq) |")
+    print("|---|---|---|---|---|---|---|")
+    for name in [*dict.fromkeys(r["config"] for r in rows), None]:
+        cell = [r for r in rows if name is None or r["config"] == name]
+        nl = sum(len(r["families_label"]) for r in cell)
+        one = [sum(len(r[f"significant_{p}"]) for r in cell) for p in ("own", "seq")]
+        both = [sum(len(r[f"significant_{p}"]) + len(r[f"significant_joint_{p}"]) for r in cell) for p in ("own", "seq")]
+
+        def every(r, p, fams):
+            got = set(r[f"significant_{p}"]) | set(r[f"significant_joint_{p}"])
+            return set(fams) <= got
+
+        pall = [sum(every(r, p, r["families_label"]) for r in cell) for p in ("own", "seq")]
+        p3 = [sum(every(r, p, r.get("families_label_3", [])) for r in cell) for p in ("own", "seq")]
+        print(f"| {name or 'all'} | {len(cell)} | {nl} | {one[0]} / {one[1]} | {both[0]} / {both[1]} | "
+              f"{pall[0]} / {pall[1]} | {p3[0]} / {p3[1]} |")
 
 
 if __name__ == "__main__":
