@@ -30,7 +30,9 @@ detected pixels lie from the exact curves of the lines they match (``distance_me
 :func:`catadioptric.detect.evaluate_view`), per configuration and renderer, and the Gaussian noise
 of the same median distance (median / 0.6745): the label path's noise level the image path's
 pixels are comparable to. ``misses`` also gives where the
-families of three or more lines were lost. Needs the
+families of three or more lines were lost, the matched families scored wrong, and with ``--bound
+validate/relative_pose/family_identifiability.json`` where the lost families of three or more
+lines stand against what a vote could find at best. Needs the
 benchmark's datasets for ``misses`` (render/out/relative_pose_benchmark/datasets).
 """
 from __future__ import annotations
@@ -54,7 +56,7 @@ def _run(r, prior):
     return runs[0] if runs else None
 
 
-def misses(folder, prior):
+def misses(folder, prior, bound=None):
     from catadioptric.dataset import Dataset
     from catadioptric.detect.evaluate import label_curves
 
@@ -88,6 +90,42 @@ def misses(folder, prior):
         if run is not None and "error" not in run for x in run["families_lost"] if x["family"] in r["families_label_3"])
     print("families of three or more lines in each view, not matched right, by where they were lost "
           "(families_lost, either view): " + ", ".join(f"{c} {n}" for c, n in causes.most_common()))
+    kinds = collections.Counter()
+    for r in _load(folder).values():
+        run = _run(r, prior)
+        if run is None or "error" in run:
+            continue
+        n_a = r["detection"][0]["families_detected"]  # families beyond these came from the joint vote
+        for m in run["matched"]:
+            kinds["joint " + ("right" if m["right"] else "wrong") if m["family_a"] >= n_a else
+                  ("right" if m["right"] else "wrong")] += 1
+            kinds["spurious"] += not m["right"] and (m["true_a"] is None or m["true_b"] is None)
+    print(f"matched families: {kinds['right'] + kinds['joint right']} right, {kinds['wrong'] + kinds['joint wrong']} "
+          f"wrong ({kinds['spurious']} of them with no true family holding most of their lines in a view); from the "
+          f"joint vote {kinds['joint right']} right, {kinds['joint wrong']} wrong")
+    if bound is not None:
+        rows = {(x["config"], x["pair"]): x for x in json.loads(Path(bound).read_text())}
+        where = collections.Counter()
+        for r in _load(folder).values():
+            run = _run(r, prior)
+            if run is None or "error" in run or (r["config"], r["pair"]) not in rows:
+                continue
+            b = rows[r["config"], r["pair"]]
+            for x in run["families_lost"]:
+                if x["family"] not in r["families_label_3"]:
+                    continue
+                f = x["family"]
+                reach = ("one view at a time" if f in b["significant_seq"] else
+                         "both views at once" if f in b["significant_joint_seq"] else
+                         "only with its own lines free" if f in b["significant_own"] + b["significant_joint_own"]
+                         else "beyond the bound")
+                where[reach, x["cause"].split(": ", 1)[-1]] += 1
+        print("those families of three or more lines against what a vote could find at best "
+              "(tools/family_identifiability.py rows):")
+        for reach in ("one view at a time", "both views at once", "only with its own lines free", "beyond the bound"):
+            got = {c: n for (w, c), n in where.items() if w == reach}
+            print(f"  {reach}: {sum(got.values())} (" + ", ".join(f"{c} {n}" for c, n in
+                                                             sorted(got.items(), key=lambda t: -t[1])) + ")")
 
 
 def pixel_error(folders):
@@ -236,6 +274,7 @@ def main():
     m = sub.add_parser("misses")
     m.add_argument("results")
     m.add_argument("--prior", type=_prior, default=60.0, help="degrees, or none")
+    m.add_argument("--bound", help="tools/family_identifiability.py --json rows: where the lost families stand")
     c = sub.add_parser("compare")
     c.add_argument("base")
     c.add_argument("new")
@@ -263,7 +302,7 @@ def main():
     elif a.cmd == "margins":
         margins(a.results, a.prior, [x if x == "rule" else float(x) for x in a.bars.split(",")])
     elif a.cmd == "misses":
-        misses(a.results, a.prior)
+        misses(a.results, a.prior, a.bound)
     else:
         compare(a.base, a.new, a.prior)
 
