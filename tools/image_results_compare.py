@@ -100,8 +100,11 @@ def misses(folder, prior, bound=None):
             kinds["joint " + ("right" if m["right"] else "wrong") if m["family_a"] >= n_a else
                   ("right" if m["right"] else "wrong")] += 1
             kinds["spurious"] += not m["right"] and (m["true_a"] is None or m["true_b"] is None)
+        kinds["by direction"] += sum(not m["right"] and md["right"] for m, md in zip(run["matched"],
+                                                                                     run["matched_direction"]))
     print(f"matched families: {kinds['right'] + kinds['joint right']} right, {kinds['wrong'] + kinds['joint wrong']} "
-          f"wrong ({kinds['spurious']} of them with no true family holding most of their lines in a view); from the "
+          f"wrong ({kinds['spurious']} of them with no true family holding most of their lines in a view, "
+          f"{kinds['by direction']} right by their directions alone, matched_direction); from the "
           f"joint vote {kinds['joint right']} right, {kinds['joint wrong']} wrong")
     if bound is not None:
         rows = {(x["config"], x["pair"]): x for x in json.loads(Path(bound).read_text())}
