@@ -24,10 +24,11 @@ degrees wide); the joint vote of the two views (``detect.joint_families``) asks 
 over *distinct* planes (a segment seen in both views counts once: its two planes nearly coincide)
 and two such lines in each view. This tool gives that vote every advantage: the labelled lines
 whole (every line of 20 pixels or more, the detector's search lines), the true directions as its
-hypotheses, no other edges. ``own``: each family with only its own lines free (no vote can do
-better); ``seq``: the vote's sequence, every labelled line free at first, the most significant
-family taken first and the lines that agree with it taken out, then the joint vote over the lines
-of no family found in both views. A pair counts when every label family (or every one with three
+hypotheses, no other edges; every line that agrees with a direction counts for it, whatever its
+family (the vote cannot tell). ``own``: each family with only the lines that agree with it free
+(no vote can do better); ``seq``: the vote's sequence, every labelled line free at first, the
+most significant family taken first and the lines that agree with it taken out, then the joint
+vote over the lines of no family found in both views. A pair counts when every label family (or every one with three
 lines or more in each view, ``families_label_3``) is found one view at a time or both at once. The
 bars can be changed (``--max-log-nfa``, ``--joint-max-log-nfa``) to see what a laxer vote, which
 also finds more families that are not there, could reach; ``--systematic 0.15`` adds the
@@ -59,8 +60,8 @@ from catadioptric.validate.benchmark_spec import load_benchmark_spec, pairs_of
 def view_lines(view, min_pixels: int, sigma: float, chi2_max: float = 9.0, floor_deg: float = 0.1,
                systematic_px: float = 0.0) -> list[dict]:
     """Each labelled line of at least ``min_pixels`` pixels: its family, the true families it
-    agrees with, and the width of its band of agreement about its own family's direction
-    (``band_rad``: ``sqrt(chi2_max (s^T C s + floor^2))``, the detector's vote, ``detect.families``).
+    agrees with, and the width of its band of agreement about each family's direction
+    (``bands``, radians: ``sqrt(chi2_max (s^T C s + floor^2))``, the detector's vote, ``detect.families``).
     ``systematic_px``: the detector's error that does not average out along a line
     (``detect.curves.line_covariance``)."""
     dirs = {int(f["index"]): np.asarray(f["direction_M"], float) for f in view["families"]}
@@ -79,10 +80,10 @@ def view_lines(view, min_pixels: int, sigma: float, chi2_max: float = 9.0, floor
             C = C + plane_covariance(n, rays, systematic_px) * (int(rays.ok.sum()) / 2.0)
         var = np.einsum("hi,ij,hj->h", S, C, S) + floor2
         chi2 = (S @ n) ** 2 / var
-        own = present.index(t["family"])
         out.append({"segment": t["segment"], "family": t["family"], "pixels": len(t["uv"]),
                     "agrees": [f for f, c in zip(present, chi2) if c <= chi2_max],
-                    "chi2_own": float(chi2[own]), "band_rad": float(np.sqrt(chi2_max * var[own]))})
+                    "chi2_own": float(chi2[present.index(t["family"])]),
+                    "bands": {f: float(np.sqrt(chi2_max * v)) for f, v in zip(present, var)}})
     return out
 
 
@@ -107,15 +108,21 @@ def pair_row(ds, names, min_pixels, sigma, need, search_pixels=20, systematic_px
             "lines_off_own_family": own_off, **significance(per_view, label)}
 
 
+def _assignable(lines, f) -> int:
+    """Lines of family ``f`` that its vote's last step would give it: agreeing with it alone, within
+    a band of at most 2 degrees."""
+    return sum(1 for ln in lines if ln["family"] == f and ln["agrees"] == [f] and ln["bands"][f] <= _MAX_BAND)
+
+
 def _one_view(lines, f, free):
-    """Family ``f`` in one view as the detector's vote sees it at best: the log NFA of its free lines
-    that agree with it (among ``free`` lines, at least its own) and how many could be assigned to it."""
+    """Family ``f`` in one view as the detector's vote sees it at best: the log NFA of the free lines
+    that agree with its direction (whatever their family: the vote cannot tell) among ``free`` lines
+    (at least those), and whether it keeps enough lines to assign."""
     from catadioptric.detect.families import _log_nfa
 
-    vote = [ln for ln in lines if f in ln["agrees"] and ln["family"] == f and ln["free"]]
-    eps = np.minimum([ln["band_rad"] for ln in vote], 1.0)
-    assignable = sum(1 for ln in lines if ln["family"] == f and ln["agrees"] == [f] and ln["band_rad"] <= _MAX_BAND)
-    return _log_nfa(np.asarray(eps, float), max(free, len(vote))), assignable
+    vote = [ln for ln in lines if f in ln["agrees"] and ln["free"]]
+    eps = np.minimum([ln["bands"][f] for ln in vote], 1.0)
+    return _log_nfa(np.asarray(eps, float), max(free, len(vote))), _assignable(lines, f) >= 3
 
 
 def _vote(lines, label, pool):
@@ -126,7 +133,7 @@ def _vote(lines, label, pool):
     for ln in lines:
         ln["free"] = True
     if pool == "own":
-        return [f for f in label if (lambda r: r[0] <= _ONE_VIEW_LOG_NFA and r[1] >= 3)(_one_view(lines, f, 0))]
+        return [f for f in label if _one_view(lines, f, 0)[0] <= _ONE_VIEW_LOG_NFA and _one_view(lines, f, 0)[1]]
     found, left = [], list(label)
     while left:
         n_free = sum(ln["free"] for ln in lines)
@@ -135,7 +142,7 @@ def _vote(lines, label, pool):
         if lg > _ONE_VIEW_LOG_NFA:
             break
         left.remove(f)
-        if _one_view(lines, f, n_free)[1] >= 3:
+        if _one_view(lines, f, n_free)[1]:
             found.append(f)
         for ln in lines:
             if f in ln["agrees"]:
@@ -156,18 +163,18 @@ def significance(per_view, label) -> dict:
             if f in one:
                 continue
             # in both views at once: a segment seen in both counts once (its two planes nearly coincide)
+            # the joint vote's lines (seq): those of no family found in both views
+            def in_joint(ln):
+                return pool == "own" or not any(g in one for g in ln["agrees"])
+
             band = {}
             for lines in per_view:
                 for ln in lines:
-                    if ln["family"] == f and f in ln["agrees"]:
-                        band[ln["segment"]] = min(band.get(ln["segment"], 1.0), ln["band_rad"])
-            # the joint vote's lines: those of no family found in both views
-            free = {ln["segment"] for lines in per_view for ln in lines
-                    if pool == "seq" and not any(g in one for g in ln["agrees"])}
+                    if f in ln["agrees"] and in_joint(ln):
+                        band[ln["segment"]] = min(band.get(ln["segment"], 1.0), ln["bands"][f])
+            free = {ln["segment"] for lines in per_view for ln in lines if pool == "seq" and in_joint(ln)}
             lg = _log_nfa(np.minimum(list(band.values()), 1.0), max(len(free), len(band)))
-            per = [sum(1 for ln in lines if ln["family"] == f and ln["agrees"] == [f] and ln["band_rad"] <= _MAX_BAND)
-                   for lines in per_view]
-            if lg <= _JOINT_LOG_NFA and min(per) >= 2:
+            if lg <= _JOINT_LOG_NFA and min(_assignable(lines, f) for lines in per_view) >= 2:
                 joint.append(f)
         out[f"significant_{pool}"] = one
         out[f"significant_joint_{pool}"] = joint
