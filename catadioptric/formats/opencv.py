@@ -9,7 +9,7 @@ import numpy as np
 from .._checks import CatadioptricError
 from .rigmodel import as_export_model, float_text, header_lines
 
-__all__ = ["opencv_yaml"]
+__all__ = ["opencv_yaml", "read_opencv", "OPENCV_KEYS"]
 
 
 # ------------------------------------------------------------------ writer
@@ -33,3 +33,54 @@ def opencv_yaml(model_or_cam, *, rig: str = "rig") -> str:
     lines += _cv_matrix("rvec", np.reshape(om["rvec"], (3, 1)))
     lines += _cv_matrix("tvec", np.reshape(om["tvec"], (3, 1)))
     return "\n".join(lines) + "\n"
+
+
+# ------------------------------------------------------------------ reader
+#: what a calibration of ``cv2.omnidir`` holds (``cv2.FileStorage`` keys)
+OPENCV_KEYS = ("camera_matrix", "xi", "distortion_coefficients", "image_width", "image_height")
+
+
+def _node_values(fs, key: str, path: str) -> np.ndarray:
+    node = fs.getNode(key)
+    if node.empty() or node.isNone():
+        raise CatadioptricError(f"{path}: {key}: missing (an OpenCV omnidir calibration holds {', '.join(OPENCV_KEYS)})")
+    if node.isReal() or node.isInt():
+        return np.array([node.real()], float)
+    m = node.mat()
+    if m is None:
+        raise CatadioptricError(f"{path}: {key}: expected a number or an opencv-matrix, got {node.type()!r}")
+    return np.asarray(m, float).reshape(-1)
+
+
+def read_opencv(path: str):
+    """The :class:`catadioptric.models.MeiCamera` of an OpenCV omnidir calibration file as
+    ``cv2.FileStorage`` writes it (YAML or XML): ``camera_matrix`` (3x3, skew kept), ``xi``,
+    ``distortion_coefficients`` (k1, k2, p1, p2), ``image_width``, ``image_height``. Directions
+    are in omnidir's camera frame (the frame of its ``rvec``/``tvec``). Other keys (the
+    ``rvec``/``tvec`` of :func:`opencv_yaml`, a calibration's own extrinsics) are not the
+    camera's and are left alone."""
+    import cv2
+
+    from ..models import MeiCamera
+
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    try:
+        if not fs.isOpened():
+            raise CatadioptricError(f"{path}: not a file cv2.FileStorage can read")
+        K = _node_values(fs, "camera_matrix", path)
+        if K.size != 9:
+            raise CatadioptricError(f"{path}: camera_matrix: expected 3x3 numbers, got {K.size}")
+        xi = _node_values(fs, "xi", path)
+        if xi.size != 1:
+            raise CatadioptricError(f"{path}: xi: expected one number, got {xi.size}")
+        D = _node_values(fs, "distortion_coefficients", path)
+        if D.size != 4:
+            raise CatadioptricError(f"{path}: distortion_coefficients: expected 4 numbers (k1, k2, p1, p2), "
+                                    f"got {D.size}")
+        size = [_node_values(fs, k, path) for k in ("image_width", "image_height")]
+    finally:
+        fs.release()
+    try:
+        return MeiCamera(size[0][0], size[1][0], float(xi[0]), K.reshape(3, 3), tuple(D))
+    except CatadioptricError as exc:
+        raise CatadioptricError(f"{path}: {exc}") from None

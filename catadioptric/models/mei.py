@@ -77,10 +77,11 @@ def undistort_radtan(xd, yd, k1, k2, p1, p2, iters: int = 30):
     return x, y, ok
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)
 class MeiCamera(CentralCamera):
     """Mei's unified model (module docstring): ``xi``, ``K`` (3x3 with skew ``K[0, 1]``) and
-    ``D = (k1, k2, p1, p2)``, image ``width`` x ``height``."""
+    ``D = (k1, k2, p1, p2)``, image ``width`` x ``height``. A negative ``fy`` (the project's
+    own export of a right-handed sphere frame, docs/unified.md) is the tool's formula too."""
 
     xi: float = 1.0
     K: np.ndarray = None
@@ -98,8 +99,8 @@ class MeiCamera(CentralCamera):
         K = as_float_array(self.K, "K")
         if K.shape != (3, 3):
             raise CatadioptricError(f"K: expected a 3x3 camera matrix, got an array of shape {K.shape}")
-        if not (K[1, 0] == 0 and K[2, 0] == 0 and K[2, 1] == 0 and K[2, 2] == 1 and K[0, 0] > 0 and K[1, 1] > 0):
-            raise CatadioptricError(f"K: expected [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0, "
+        if not (K[1, 0] == 0 and K[2, 0] == 0 and K[2, 1] == 0 and K[2, 2] == 1 and K[0, 0] != 0 and K[1, 1] != 0):
+            raise CatadioptricError(f"K: expected [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with fx, fy non-zero, "
                                     f"got {K.tolist()}")
         D = as_float_array(self.D, "D").reshape(-1)
         if D.shape != (4,):
