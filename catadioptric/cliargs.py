@@ -19,7 +19,8 @@ __all__ = ["Parser", "positive_int", "nonnegative_int", "positive_float", "nonne
            "resolve_rig", "check_out_dir", "parse_resolution", "check_scheduler", "RIG_HELP"]
 
 #: The help text of every ``--rig``.
-RIG_HELP = "a rig name (a packaged rig spec or preset: catadioptric.rigspec.rig_names()) or a rig spec file"
+RIG_HELP = ("a rig name (a packaged rig spec or preset: catadioptric.rigspec.rig_names()), a rig spec file, or a "
+            "calibration file of OpenCV omnidir (YAML/XML), Kalibr (camchain YAML) or OCamCalib (calib_results.txt)")
 
 
 class Parser(argparse.ArgumentParser):
@@ -73,12 +74,35 @@ def flag_error(flag: str, exc, param: str | None = None) -> CatadioptricError:
 
 
 # ------------------------------------------------------------------ --rig
-def resolve_rig(value: str, *, width: int | None = None, height: int | None = None, flag: str = "--rig"):
-    """The camera of a ``--rig`` value and its description ``{"name", "spec"}`` (``spec``: the
-    normalised rig spec). The value is a rig name (a packaged rig spec file or a preset of
-    ``catadioptric.rigs``) or a rig spec file (TOML or JSON), as everywhere (``load_rig``)."""
+def resolve_rig(value: str, *, width: int | None = None, height: int | None = None, flag: str = "--rig",
+                camera: str | None = None):
+    """The camera of a ``--rig`` value and its description ``{"name", "spec"}``. The value is a rig
+    name (a packaged rig spec file or a preset of ``catadioptric.rigs``) or a rig spec file (TOML
+    or JSON), as everywhere (``load_rig``; ``spec``: the normalised rig spec), or a calibration
+    file of OpenCV omnidir, Kalibr or OCamCalib (:func:`catadioptric.formats.load_camera`, recognised
+    by content; ``camera``: the camera of a Kalibr camchain; ``spec``: ``{"calibration": format,
+    "camera": cam.to_dict()}``). A calibration fixes the image size: ``width``/``height``, when
+    given (the image's), must match it."""
+    from .formats import calibration_format, load_camera
     from .rigspec import load_rig, load_rig_spec, rig_from_spec
 
+    fmt = None
+    if isinstance(value, str) and os.path.isfile(value) and not value.lower().endswith((".toml", ".json")):
+        try:
+            fmt = calibration_format(value)
+        except (OSError, CatadioptricError):
+            fmt = None
+    if fmt is not None:
+        try:
+            cam = load_camera(value, camera=camera)
+        except CatadioptricError as exc:
+            raise flag_error(flag, exc) from None
+        if width is not None and height is not None and (width, height) != (cam.width, cam.height):
+            raise CatadioptricError(f"{flag}: the calibration {value!r} is of {cam.width}x{cam.height} images, got an "
+                                    f"image of {width}x{height}")
+        return cam, {"name": value, "spec": {"calibration": fmt, "camera": cam.to_dict()}}
+    if camera is not None:
+        raise CatadioptricError(f"--camera: only for a Kalibr camchain given as {flag}, got {flag} {value!r}")
     try:
         spec = load_rig_spec(value)
         if "preset" in spec:

@@ -15,7 +15,7 @@ from .families import group_families
 from .grow import grow_lines
 from .image import DENOISE_MODES, denoise, luminance, noise_level, to_channels
 from ..linefit.planes import pixel_rays_with_jacobian
-from .region import mirror_region
+from .region import ANNULUS_MARGIN_PX, check_mask, mirror_region, scene_annulus
 from .result import DetectedLines
 
 __all__ = ["detect_lines", "check_options", "DEFAULTS"]
@@ -77,14 +77,20 @@ def check_options(options: dict) -> dict:
     return o
 
 
-def detect_lines(image, cam, **options) -> DetectedLines:
+def detect_lines(image, cam, *, mask=None, **options) -> DetectedLines:
     """The line curves and families of one beauty ``image`` (RGB ``uint8``, ``uint16`` or float
-    in [0, 1], or grey) of the rig ``cam`` (a :class:`~catadioptric.CatadioptricCamera` whose
-    pinhole has the image's size). Options: :data:`DEFAULTS`; the method: docs/detect.md."""
+    in [0, 1], or grey) of the camera ``cam``: an exact rig (a
+    :class:`~catadioptric.CatadioptricCamera` whose pinhole has the image's size) or a calibration
+    of another tool (a camera model of :mod:`catadioptric.models`, e.g. from
+    :func:`catadioptric.formats.load_camera`). ``mask`` (optional, the image's size): non-zero
+    where the pixel may be used (what moves or does not belong to the scene is zero). Options:
+    :data:`DEFAULTS`; the method, and the region looked at: docs/detect.md."""
     from ..cameras import CatadioptricCamera
+    from ..models.base import CentralCamera, image_size
 
-    if not isinstance(cam, CatadioptricCamera):
-        raise CatadioptricError(f"cam: expected a CatadioptricCamera, got {type(cam).__name__}")
+    if not isinstance(cam, (CatadioptricCamera, CentralCamera)):
+        raise CatadioptricError(f"cam: expected a CatadioptricCamera or a camera model of catadioptric.models, got "
+                                f"{type(cam).__name__}")
     o = check_options(options)
     seconds = {}
     t = time.perf_counter()
@@ -98,11 +104,19 @@ def detect_lines(image, cam, **options) -> DetectedLines:
     chan = to_channels(image)
     if not o["colour"]:
         chan = luminance(chan)[..., None]
-    W, H = cam.pinhole.width, cam.pinhole.height
+    W, H = image_size(cam)
     if chan.shape[:2] != (H, W):
-        raise CatadioptricError(f"image: expected {W}x{H} pixels (the rig's image size), got "
+        raise CatadioptricError(f"image: expected {W}x{H} pixels (the camera's image size), got "
                                 f"{chan.shape[1]}x{chan.shape[0]}")
+    user = None if mask is None else check_mask(mask, (H, W))
     mask = mirror_region(cam, o["erode_px"])
+    annulus = None
+    if isinstance(cam, CentralCamera):  # a calibration knows no mirror rim: the photograph shows it
+        annulus = scene_annulus(luminance(chan), mask, cam.axis_pixel())
+        if annulus is not None:
+            mask &= annulus.mask((H, W), ANNULUS_MARGIN_PX)
+    if user is not None:
+        mask &= user
     lap("region")
     noise_in = noise_level(luminance(chan), mask)
     chan, mode = denoise(chan, o["denoise"], noise_in, strength=o["denoise_strength"])
@@ -154,5 +168,5 @@ def detect_lines(image, cam, **options) -> DetectedLines:
     return DetectedLines(cam=cam, uv=uv, normal=normals, normal_cov=covs, rms=np.array(rms), polarity=np.array(pol),
                          width=np.array(width), family=family, families=families, image_size=(W, H),
                          noise={"image": noise_in, "denoised": noise_out}, denoise=mode,
-                         chains=[c["uv"] for c in chains], seconds=seconds,
+                         chains=[c["uv"] for c in chains], seconds=seconds, annulus=annulus,
                          options={k: v for k, v in o.items()})

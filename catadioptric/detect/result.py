@@ -26,7 +26,8 @@ class DetectedLines:
     ``lines``, ``pixels``; direction signs arbitrary, keys meaningful in this view only).
     ``noise``: the image's noise (grey levels) before and after denoising, ``denoise``: the mode
     applied; ``chains``: the linked chains (``uv`` each); ``seconds``: time per stage;
-    ``options``: the options used.
+    ``options``: the options used; ``annulus``: for a camera model, the mirror's disc found in the
+    photograph ``(u0, v0, r_in, r_out)`` (docs/detect.md).
     """
 
     cam: object
@@ -44,6 +45,7 @@ class DetectedLines:
     chains: list = field(default_factory=list)
     seconds: dict = field(default_factory=dict)
     options: dict = field(default_factory=dict)
+    annulus: tuple | None = None  # (u0, v0, r_in, r_out) of a photograph's mirror disc (camera models)
 
     def __len__(self) -> int:
         return len(self.uv)
@@ -80,6 +82,7 @@ class DetectedLines:
             "denoise": self.denoise,
             "noise": self.noise,
             "options": self.options,
+            "annulus": None if self.annulus is None else list(self.annulus),
             "seconds": self.seconds,
             "families": [{"index": k, "direction": f.direction, "cov": f.cov, "std_deg": f.std_deg,
                           "lines": f.lines, "pixels": f.pixels} for k, f in enumerate(self.families)],

@@ -44,7 +44,8 @@ def fit_interpretation_plane(cam, uv, *, f_scale: float = 1.0, ransac: bool = Tr
                              directions_only: bool = False) -> InterpretationPlane:
     """What one image of a central camera says about a 3-D line: the plane through the
     viewpoint that holds it (``normal``, unit; the line's direction is normal to it).
-    ``cam``: a central :class:`CatadioptricCamera` or a :class:`~catadioptric.unified.UnifiedCamera`;
+    ``cam``: a central :class:`CatadioptricCamera`, a :class:`~catadioptric.unified.UnifiedCamera` or a
+    camera model of :mod:`catadioptric.models` (a calibration of another tool);
     with ``directions_only``, also a non-central camera, of whose rays only the directions count:
     the plane (through the rays' centre) that holds them, an approximation whose angular error is
     about the spread of the rays' origins over the line's distance (a start for exact fits).
@@ -57,10 +58,12 @@ def fit_interpretation_plane(cam, uv, *, f_scale: float = 1.0, ransac: bool = Tr
     linearisation (sigma from the residuals unless ``pixel_sigma`` is given). Two or
     more parallel lines give their direction as the common normal of their planes.
     """
+    from ..models.base import CentralCamera
     from ..unified import UnifiedCamera
 
-    if not isinstance(cam, (CatadioptricCamera, UnifiedCamera)):
-        raise CatadioptricError(f"cam: expected a CatadioptricCamera or a UnifiedCamera, got {type(cam).__name__}")
+    if not isinstance(cam, (CatadioptricCamera, UnifiedCamera, CentralCamera)):
+        raise CatadioptricError(f"cam: expected a CatadioptricCamera, a UnifiedCamera or a camera model of "
+                                f"catadioptric.models, got {type(cam).__name__}")
     if isinstance(cam, CatadioptricCamera) and not cam.is_central and not directions_only:
         raise CatadioptricError("cam: expected a central camera (cam.is_central); a non-central camera sees the "
                                 "whole line: use fit_line (or directions_only=True for the approximate plane)")

@@ -40,13 +40,15 @@ def vanishing_points_from_curves(cam: CatadioptricCamera, uv_sets, **options) ->
     say how far apart the individually fitted curves pass at each vanishing point (a
     line whose own fit fails counts as missing there).
 
-    Central cameras (``cam.is_central``; at least 2 curves): each curve gives only its
+    Central cameras (``cam.is_central``, or a camera model of :mod:`catadioptric.models`; at least 2 curves): each curve gives only its
     interpretation plane (:func:`fit_interpretation_plane`), the direction is the one normal
     to all planes (:func:`direction_from_planes`), ``family`` is None, ``individual`` holds
     the planes and ``individual_uv`` one row per pair of curves: the vanishing points of
     the pair's own direction (where the two fitted curves cross).
     """
-    if isinstance(cam, CatadioptricCamera) and cam.is_central:
+    from ..models.base import CentralCamera
+
+    if isinstance(cam, CentralCamera) or (isinstance(cam, CatadioptricCamera) and cam.is_central):
         return _central_vanishing_points(cam, uv_sets, **options)
     fam = fit_parallel_lines(cam, uv_sets, **options)
     s = fam.direction

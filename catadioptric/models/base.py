@@ -28,7 +28,7 @@ import numpy as np
 
 from .._checks import CatadioptricError, as_float_array
 
-__all__ = ["CentralCamera", "ROUND_TRIP_PX", "check_size"]
+__all__ = ["CentralCamera", "ROUND_TRIP_PX", "check_size", "image_size"]
 
 #: a pixel belongs to the model's image region when its ray projects back within this many pixels
 ROUND_TRIP_PX = 1e-3
@@ -48,6 +48,18 @@ def check_size(width, height, where: str) -> tuple[int, int]:
             v = int(f)
         out.append(int(v))
     return out[0], out[1]
+
+
+def image_size(cam) -> tuple[int, int]:
+    """``(width, height)`` of any camera: a model of this package, an exact rig (its pinhole's)
+    or a :class:`~catadioptric.unified.UnifiedCamera` with a size."""
+    pin = getattr(cam, "pinhole", None)
+    if pin is not None:
+        return int(pin.width), int(pin.height)
+    w, h = getattr(cam, "width", None), getattr(cam, "height", None)
+    if w is None or h is None:
+        raise CatadioptricError(f"cam: expected a camera with an image size, got {type(cam).__name__} without one")
+    return int(w), int(h)
 
 
 @dataclass(frozen=True, eq=False)
@@ -84,7 +96,16 @@ class CentralCamera:
     #: (a subclass with one makes it a field)
     roi = None
 
+    #: the direction of the optical axis in the model's frame (the mirror's axis of a catadioptric
+    #: camera; its image is the centre of the mirror's disc)
+    axis = (0.0, 0.0, 1.0)
+
     # ------------------------------------------------------------------ what every model has
+    def axis_pixel(self) -> np.ndarray:
+        """The pixel of :attr:`axis` (NaN when the model does not image it)."""
+        uv, ok = self._project_directions(np.asarray(self.axis, float))
+        return uv if ok else np.full(2, np.nan)
+
     @property
     def viewpoint(self) -> np.ndarray:
         """The single viewpoint: the origin of the model's frame."""
