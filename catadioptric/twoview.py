@@ -46,12 +46,14 @@ def _family_map(pose) -> dict:
 def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_options: dict | None = None,
                               min_pixels: int = 30, max_rotation_deg: float | None = None, decisive: float = 25.0,
                               decisive_matching: float | None = None, seed: int = 0, joint: bool = True,
-                              covariance_scale: float | None = None) -> ImagePairPose:
+                              covariance_scale: float | None = None, masks=(None, None)) -> ImagePairPose:
     """The relative pose of two views from their images alone.
 
     ``image_a``, ``image_b``: arrays (RGB or grey; uint8, uint16 or float in [0, 1]) taken by
     ``cam_a`` and ``cam_b`` (default ``cam_a``). ``detect_options``: options of
-    :func:`catadioptric.detect.detect_lines`. ``min_pixels``: shortest line used by the pose.
+    :func:`catadioptric.detect.detect_lines`; ``masks``: the two images' masks (non-zero: use the
+    pixel; None: all), for what moves or does not belong to the scene. ``min_pixels``: shortest line
+    used by the pose.
     ``max_rotation_deg``: a prior on the motion (see :func:`catadioptric.pose.relative_pose`):
     without it the symmetric answers of a Manhattan scene usually leave the result ``ambiguous``.
     ``decisive``, ``decisive_matching``: see :func:`catadioptric.pose.relative_pose`. ``joint``:
@@ -67,9 +69,9 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
     opts = dict(detect_options or {})
     t0 = time.perf_counter()
     dets = []
-    for name, img, cam in (("A", image_a, cam_a), ("B", image_b, cam_b)):
+    for name, img, cam, mask in (("A", image_a, cam_a, masks[0]), ("B", image_b, cam_b, masks[1])):
         try:
-            dets.append(detect_lines(img, cam, **opts))
+            dets.append(detect_lines(img, cam, mask=mask, **opts))
         except CatadioptricError as exc:
             raise CatadioptricError(f"image {name}: {exc}") from None
     t1 = time.perf_counter()
@@ -270,24 +272,27 @@ def _run(args) -> int:
 
     from ._io import atomic_write_bytes, atomic_write_json, jsonable
     from .cliargs import check_out_dir, resolve_rig
-    from .detect.cli import camera_from_folder, read_image
+    from .detect.cli import camera_from_folder, read_image, read_mask
     from .detect.report import write_png
 
     check_out_dir(args.out)
     images = [read_image(p) for p in (args.image_a, args.image_b)]
 
-    def camera(value, flag, img):
+    def camera(value, flag, img, which):
         if os.path.isdir(value):
             return camera_from_folder(value, flag)
-        return resolve_rig(value, width=img.shape[1], height=img.shape[0], flag=flag)[0]
+        return resolve_rig(value, width=img.shape[1], height=img.shape[0], flag=flag, camera=which)[0]
 
-    cam_a = camera(args.rig, "--rig", images[0])
-    cam_b = camera(args.rig_b or args.rig, "--rig-b" if args.rig_b else "--rig", images[1])
+    cam_a = camera(args.rig, "--rig", images[0], args.camera)
+    cam_b = camera(args.rig_b or args.rig, "--rig-b" if args.rig_b else "--rig", images[1],
+                   args.camera_b or args.camera)
+    masks = (read_mask(args.mask, images[0].shape[:2], "--mask") if args.mask else None,
+             read_mask(args.mask_b, images[1].shape[:2], "--mask-b") if args.mask_b else None)
     opts = {} if args.denoise is None else {"denoise": args.denoise}
     res = relative_pose_from_images(images[0], images[1], cam_a, cam_b, detect_options=opts,
                                     min_pixels=args.min_pixels, max_rotation_deg=args.max_rotation,
                                     decisive=args.decisive, decisive_matching=args.decisive_matching,
-                                    joint=not args.no_joint_families)
+                                    joint=not args.no_joint_families, masks=masks)
     os.makedirs(args.out, exist_ok=True)
     summary = image_pair_summary(res) | {"images": [os.path.abspath(args.image_a), os.path.abspath(args.image_b)],
                                          "rig": [args.rig, args.rig_b or args.rig]}
@@ -319,6 +324,11 @@ def register(sub) -> None:
     p.add_argument("--rig", required=True, metavar="RIG",
                    help=RIG_HELP + ", or a dataset (view) folder whose stored camera took the images")
     p.add_argument("--rig-b", metavar="RIG", help="the rig of IMAGE_B when it differs (default: --rig)")
+    p.add_argument("--camera", metavar="camN", help="the camera of a Kalibr camchain given as --rig (cam0, cam1, ...)")
+    p.add_argument("--camera-b", metavar="camN", help="the camera of a Kalibr camchain for IMAGE_B (default: --camera)")
+    p.add_argument("--mask", metavar="PNG", help="a mask of IMAGE_A's size: non-zero where a pixel may be used (zero on "
+                                                 "what moves or does not belong to the scene)")
+    p.add_argument("--mask-b", metavar="PNG", help="the mask of IMAGE_B (default: none)")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--max-rotation", type=positive_float, metavar="DEG",
                    help="prior: the views turn by at most DEG degrees (rules out the symmetric answers of a "

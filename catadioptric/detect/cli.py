@@ -9,7 +9,7 @@ import numpy as np
 from .._checks import CatadioptricError
 from ..cliargs import RIG_HELP, check_out_dir, nonnegative_float, positive_float, positive_int, resolve_rig
 
-__all__ = ["register", "read_image", "camera_from_folder"]
+__all__ = ["register", "read_image", "read_mask", "camera_from_folder"]
 
 
 def read_image(path: str) -> np.ndarray:
@@ -17,19 +17,49 @@ def read_image(path: str) -> np.ndarray:
     import cv2
 
     if not os.path.isfile(path):
+        if os.path.isdir(path):
+            what = "a folder that is not a dataset (no manifest.json in it or its parent)"
+        elif os.path.exists(path):
+            what = "not a regular file (a device, a socket or a pipe)"
+        else:
+            what = "which does not exist"
         raise CatadioptricError(f"IMAGE: expected an image file, a dataset view folder or a dataset folder, got "
-                                f"{path!r}, which does not exist")
+                                f"{path!r}, {what}")
+    if os.path.getsize(path) == 0:
+        raise CatadioptricError(f"IMAGE: expected an image file, got {path!r}, an empty file")
     if path.lower().endswith(".npy"):
         try:
-            return np.load(path, allow_pickle=False)
+            img = np.load(path, allow_pickle=False)
         except (OSError, ValueError) as exc:
             raise CatadioptricError(f"IMAGE: {path!r} is not a readable .npy array ({exc})") from None
+        if not isinstance(img, np.ndarray) or img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[2] not in (1, 3, 4)):
+            raise CatadioptricError(f"IMAGE: expected an image array of shape (H, W) or (H, W, 3), got {path!r}, an "
+                                    f"array of shape {getattr(img, 'shape', ())}, which is not an image")
+        return img
     img = cv2.imread(path, cv2.IMREAD_UNCHANGED)
     if img is None:
         raise CatadioptricError(f"IMAGE: {path!r} is not an image OpenCV can read")
     if img.ndim == 3:
         img = img[..., [2, 1, 0]] if img.shape[2] == 3 else img[..., [2, 1, 0, 3]][..., :3]
     return np.ascontiguousarray(img)
+
+
+def read_mask(path: str, shape, flag: str = "--mask") -> np.ndarray:
+    """A mask image (non-zero: use the pixel) as a boolean ``(H, W)`` array; its size must be
+    ``shape`` (the image's)."""
+    import cv2
+
+    from .region import check_mask
+
+    if not os.path.isfile(path):
+        raise CatadioptricError(f"{flag}: expected a mask image file, got {path!r}, which is not a file")
+    m = cv2.imread(path, cv2.IMREAD_UNCHANGED)
+    if m is None:
+        raise CatadioptricError(f"{flag}: {path!r} is not an image OpenCV can read")
+    try:
+        return check_mask(m, shape, flag)
+    except CatadioptricError as exc:
+        raise CatadioptricError(f"{exc} ({path})") from None
 
 
 def _dataset_of(folder: str):
@@ -107,10 +137,12 @@ def _run(args) -> int:
     if os.path.isdir(args.rig):
         cam = camera_from_folder(args.rig)
     else:
-        cam, _ = resolve_rig(args.rig, width=w, height=h)
-    det = detect_lines(image, cam, **options)
+        cam, _ = resolve_rig(args.rig, width=w, height=h, camera=args.camera)
+    mask = read_mask(args.mask, (h, w)) if args.mask else None
+    det = detect_lines(image, cam, mask=mask, **options)
     os.makedirs(args.out, exist_ok=True)
-    out = {"image": os.path.abspath(target), "rig": args.rig, **det.to_dict()}
+    out = {"image": os.path.abspath(target), "rig": args.rig, "mask": os.path.abspath(args.mask) if args.mask else None,
+           **det.to_dict()}
     atomic_write_json(os.path.join(args.out, "lines.json"), out)
     write_png(os.path.join(args.out, "overlay.png"), overlay_image(image, det))
     n_ass = int(np.sum(det.family >= 0))
@@ -128,6 +160,9 @@ def register(sub) -> None:
     p.add_argument("input", metavar="IMAGE", help="an image file (PNG, JPEG, TIFF, .npy), a dataset view folder or a "
                                                   "dataset folder")
     p.add_argument("--rig", metavar="RIG", help=RIG_HELP + ", or a dataset (view) folder whose stored camera to use")
+    p.add_argument("--camera", metavar="camN", help="the camera of a Kalibr camchain given as --rig (cam0, cam1, ...)")
+    p.add_argument("--mask", metavar="PNG", help="a mask of the image's size: non-zero where a pixel may be used "
+                                                 "(zero on what moves or does not belong to the scene)")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--views", nargs="+", metavar="VIEW", help="dataset views to detect (default: all)")
     p.add_argument("--denoise", choices=["auto", "nlmeans", "bilateral", "none"],
