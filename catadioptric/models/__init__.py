@@ -6,6 +6,10 @@ them), so that the detector and the pose take any of them as they take a central
 | model | file | tools |
 |---|---|---|
 | ``mei`` | ``mei.py`` | OpenCV ``cv2.omnidir``; Kalibr ``omni`` + ``radtan`` / ``none`` |
+| ``eucm`` | ``eucm.py`` | Kalibr ``eucm`` (extended unified model) + ``none`` |
+| ``ds`` | ``double_sphere.py`` | Kalibr ``ds`` (double sphere) + ``none`` |
+| ``pinhole`` | ``pinhole.py`` | Kalibr ``pinhole`` + ``radtan`` / ``equidistant`` / ``none`` |
+| ``ocamcalib`` | ``scaramuzza.py`` | OCamCalib (Scaramuzza's polynomial model, ``calib_results.txt``) |
 
 :data:`MODELS` maps each name to its class; :func:`model_from_dict` reads ``to_dict()`` back.
 Reading the tools' calibration files: :func:`catadioptric.formats.load_camera`.
@@ -13,13 +17,19 @@ Reading the tools' calibration files: :func:`catadioptric.formats.load_camera`.
 from __future__ import annotations
 
 from .._checks import CatadioptricError
-from .base import CentralCamera
+from .base import CentralCamera, image_size
+from .double_sphere import DoubleSphereCamera
+from .eucm import EUCMCamera
 from .mei import MeiCamera
+from .pinhole import KalibrPinholeCamera
+from .scaramuzza import ScaramuzzaCamera
 
-__all__ = ["CentralCamera", "MeiCamera", "MODELS", "model_from_dict", "is_model"]
+__all__ = ["CentralCamera", "MeiCamera", "EUCMCamera", "DoubleSphereCamera", "KalibrPinholeCamera",
+           "ScaramuzzaCamera", "MODELS", "model_from_dict", "is_model"]
 
 #: every model by its name (``to_dict()["model"]``)
-MODELS = {cls.model: cls for cls in (MeiCamera,)}
+MODELS = {cls.model: cls for cls in (MeiCamera, EUCMCamera, DoubleSphereCamera, KalibrPinholeCamera,
+                                     ScaramuzzaCamera)}
 
 
 def is_model(cam) -> bool:
