@@ -183,6 +183,21 @@ class DatasetView(Mapping):
             raise CatadioptricError(f"dataset: view {self.name!r}: cannot decode {fname}")
         return img
 
+    def _npz(self, fname: str, keys=None) -> dict:
+        """The arrays ``keys`` (default: all) of the view's archive ``fname``; a truncated or corrupted
+        archive (read with ``verify=False``, or altered after its check) is an error naming it."""
+        import zipfile
+        import zlib
+
+        path = os.path.join(self.folder, fname)
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                return {k: z[k] for k in (z.files if keys is None else keys)}
+        except (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
+            raise CatadioptricError(f"dataset: view {self.name!r}: {fname} is not a readable .npz archive "
+                                    f"({type(exc).__name__}: {exc}; truncated or corrupted); rerun the "
+                                    f"`catadioptric render` command that wrote it") from None
+
     def _load(self, key: str) -> None:
         c = self._cache
         if key in ("groundtruth", "camera", "pose", "objects", "lines", "families"):
@@ -200,8 +215,7 @@ class DatasetView(Mapping):
                 c[key] = gt[key]
         elif key in ("arrays", "label_ambiguous", "curves", "vanishing_points", "ground_curve"):
             if "arrays" not in c:
-                with np.load(os.path.join(self.folder, "groundtruth.npz")) as z:
-                    c["arrays"] = {k: z[k] for k in z.files}
+                c["arrays"] = self._npz("groundtruth.npz")
             a = c["arrays"]
             if key == "label_ambiguous":
                 c[key] = a["label_ambiguous"]
@@ -232,12 +246,9 @@ class DatasetView(Mapping):
 
             c[key] = decode_labels_png(self._image("labels.png", cv2.IMREAD_UNCHANGED))
         elif key == "beauty_hdr":
-            with np.load(os.path.join(self.folder, "beauty_hdr.npz")) as z:
-                c[key] = z["linear_rgb"]
+            c[key] = self._npz("beauty_hdr.npz", ("linear_rgb",))["linear_rgb"]
         elif key in ("depth", "ray_origins", "ray_directions"):
-            with np.load(os.path.join(self.folder, "rays.npz")) as z:
-                for k in ("depth", "ray_origins", "ray_directions"):
-                    c[k] = z[k]
+            c.update(self._npz("rays.npz", ("depth", "ray_origins", "ray_directions")))
 
 
 def _split(a: dict, offsets: str, fields: dict, **per_piece) -> list[dict]:

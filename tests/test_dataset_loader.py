@@ -141,3 +141,16 @@ def test_unfinished_altered_and_missing(copy, tmp_path):
         cd.Dataset(copy)["B"]["beauty"]
     # verify=False skips the checksums, not the completion marker
     assert cd.Dataset(copy, verify=False)["B"]["beauty"].shape == (120, 160, 3)
+
+
+@pytest.mark.parametrize("fname, key", [("groundtruth.npz", "curves"), ("rays.npz", "depth"),
+                                        ("beauty_hdr.npz", "beauty_hdr")])
+def test_truncated_archive_read_without_verify_names_the_file(copy, fname, key):
+    """verify=False skips the checksums: an archive cut short is then an error naming its file, not
+    a raw zipfile.BadZipFile (issue 39)."""
+    p = os.path.join(copy, "A", fname)
+    with open(p, "r+b") as f:
+        f.truncate(os.path.getsize(p) // 2)
+    with pytest.raises(cd.CatadioptricError, match=rf"dataset: view 'A': {fname} is not a readable \.npz archive "
+                                                   r"\(BadZipFile: .*truncated or corrupted\); rerun the "):
+        cd.Dataset(copy, verify=False)["A"][key]
