@@ -79,6 +79,15 @@ def test_relative_pose_errors_name_the_flag(pair, tmp_path, capsys):
     out = str(tmp_path / "r")
     assert main(["validate", "relative-pose", pair, "--views", "A", "nope", "--out", out]) == 2
     assert "views: expected names among ['A', 'B'], got unknown ['nope']" in capsys.readouterr().err
+    # the same view twice: no baseline, a NaN direction and a numpy warning before (issue 39)
+    assert main(["validate", "relative-pose", pair, "--views", "A", "A", "--out", out]) == 2
+    err = capsys.readouterr().err
+    assert err == "catadioptric: error: --views: expected two different views, got 'A' twice\n", err
+    from catadioptric.validate.relative_pose import evaluate_pair
+
+    with pytest.raises(CatadioptricError, match=r"views: expected two different views, got 'A' twice"):
+        evaluate_pair(pair, ["A", "A"])
+    assert not os.path.exists(out)
     assert main(["validate", "relative-pose", pair, "--out", out, "--min-pixels", "90", "--max-pixels", "60"]) == 2
     assert "--min-pixels: expected at most --max-pixels (60), got 90" in capsys.readouterr().err
     with pytest.raises(SystemExit):

@@ -42,6 +42,8 @@ def _relative_pose(args) -> int:
         views = ds.names[:2]
     else:
         views = args.views
+        if views[0] == views[1]:
+            raise CatadioptricError(f"--views: expected two different views, got {views[0]!r} twice")
     if args.max_pixels is not None and args.min_pixels > args.max_pixels:
         raise CatadioptricError(f"--min-pixels: expected at most --max-pixels ({args.max_pixels}), got "
                                 f"{args.min_pixels}")

@@ -133,6 +133,9 @@ def _evaluate_pair(dataset, names, noise_levels, draws, seed, pixels, min_pixels
     missing = [n for n in names if n not in ds.names]
     if missing:
         raise CatadioptricError(f"views: expected names among {ds.names}, got unknown {missing}")
+    if names[0] == names[1]:
+        raise CatadioptricError(f"views: expected two different views, got {names[0]!r} twice (a view's pose "
+                                f"relative to itself has no baseline to find)")
     va, vb = ds[names[0]], ds[names[1]]
     pa, pb = va["pose"], vb["pose"]
     R_gt = pb.R @ pa.R.T
