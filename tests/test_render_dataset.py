@@ -271,3 +271,29 @@ def test_a_missing_povray_leaves_no_output_folder(tmp_path, monkeypatch):
     with pytest.raises(RenderError, match=r"povray: the POV-Ray binary was not found"):
         render_dataset(scene, views, cam, str(tmp_path / "ds"), renderer="povray", progress=False)
     assert not os.path.exists(tmp_path / "ds")
+
+
+def test_out_folders_that_cannot_be_made_or_hold_a_folder_manifest(tmp_path, capsys):
+    """One line naming --out, before any view is rendered (issue 39): a folder the file system
+    refuses (/proc, a name over its 255-byte limit) and a dataset whose manifest.json is a folder."""
+    def fails(out):
+        try:
+            code = main(["render", "builtin:test_street", "--out", out, "--views", "view_00", "--resolution", "tiny",
+                         "--quality", "draft", "--no-progress"])
+        except SystemExit as exc:
+            code = exc.code
+        err = capsys.readouterr().err
+        assert code == 2 and "Traceback" not in err and err.count("\n") == 1, err
+        assert err.startswith("catadioptric: error: --out: "), err
+        return err.strip()
+
+    fails("/proc/catadioptric-x")
+    long = str(tmp_path / ("a" * 300))
+    assert fails(long) == f"catadioptric: error: --out: cannot create the folder {long!r} (File name too long)"
+    with pytest.raises(ValueError, match=r"out_dir: cannot create the folder '/proc/catadioptric-x' \("):
+        render_dataset(*_setup(), "/proc/catadioptric-x")
+    ds = tmp_path / "ds"
+    (ds / "manifest.json").mkdir(parents=True)
+    assert fails(str(ds)) == (f"catadioptric: error: --out: the dataset's file {str(ds / 'manifest.json')!r} is a "
+                              f"folder; remove or rename it (the run writes its manifest.json there)")
+    assert sorted(os.listdir(ds)) == ["manifest.json"]  # nothing rendered

@@ -89,10 +89,15 @@ def run(args) -> int:
     check_out_dir(args.out)
     if args.scheduler is not None:
         check_scheduler(args.scheduler)
-    manifest = render_dataset(scene, views, cam, args.out, renderer=args.renderer, quality=args.quality,
-                              workers=args.workers, scheduler=args.scheduler, rig=rig,
-                              progress=not args.no_progress, line_images=args.line_images,
-                              extras=[e for e in EXTRAS if getattr(args, e)])
+    try:
+        manifest = render_dataset(scene, views, cam, args.out, renderer=args.renderer, quality=args.quality,
+                                  workers=args.workers, scheduler=args.scheduler, rig=rig,
+                                  progress=not args.no_progress, line_images=args.line_images,
+                                  extras=[e for e in EXTRAS if getattr(args, e)])
+    except CatadioptricError as exc:
+        if str(exc).startswith("out_dir:"):  # the library's parameter, addressed to its flag
+            raise flag_error("--out", exc, "out_dir") from None
+        raise
     run_ = manifest["run"]
     ag = manifest["label_agreement"]
     print(f"{args.out}: {len(manifest['views'])} views ({len(run_['rendered'])} rendered, "

@@ -332,7 +332,16 @@ def render_dataset(scene, views, cam, out_dir, *, renderer: str = "mitsuba", qua
     versions = _versions(renderer)  # for mitsuba: probes and sets the variant once, before any worker starts
     if os.path.lexists(out_dir) and not os.path.isdir(out_dir):
         raise CatadioptricError(f"out_dir: expected a folder (new or a dataset's), got a file {out_dir!r}")
-    os.makedirs(out_dir, exist_ok=True)
+    for own in [MANIFEST] + ([MESH_FILE] if "mesh" in extras else []):  # written at the end of the run
+        p = os.path.join(out_dir, own)
+        if os.path.lexists(p) and not os.path.islink(p) and not os.path.isfile(p):
+            what = "a folder" if os.path.isdir(p) else "not a regular file"
+            raise CatadioptricError(f"out_dir: the dataset's file {p!r} is {what}; remove or rename it (the run "
+                                    f"writes its {own} there)")
+    try:
+        os.makedirs(out_dir, exist_ok=True)
+    except OSError as exc:  # a read-only or virtual file system (/proc), a name over the system's limit...
+        raise CatadioptricError(f"out_dir: cannot create the folder {out_dir!r} ({exc.strerror or exc})") from None
     with _dataset_lock(out_dir):
         return _render_locked(scene, views, cam, out_dir, renderer, q, workers, scheduler, rig, progress, line_images,
                               extras, extra_files, digest, versions)
