@@ -63,6 +63,9 @@ class Dataset(Sequence):
             raise CatadioptricError(f"path: expected a dataset folder (written by `catadioptric render`), "
                                     f"got {self.path!r}, which is not a folder")
         man = os.path.join(self.path, "manifest.json")
+        if os.path.isdir(man):
+            raise CatadioptricError(f"path: expected a dataset folder with a manifest.json file, got {self.path!r}, "
+                                    f"whose manifest.json is a folder")
         if not os.path.isfile(man):
             raise CatadioptricError(f"path: expected a dataset folder with manifest.json, got {self.path!r} (no "
                                     f"manifest: not a dataset, or its render never finished a run)")

@@ -154,3 +154,10 @@ def test_truncated_archive_read_without_verify_names_the_file(copy, fname, key):
     with pytest.raises(cd.CatadioptricError, match=rf"dataset: view 'A': {fname} is not a readable \.npz archive "
                                                    r"\(BadZipFile: .*truncated or corrupted\); rerun the "):
         cd.Dataset(copy, verify=False)["A"][key]
+
+
+def test_manifest_that_is_a_folder(tmp_path):
+    (tmp_path / "manifest.json").mkdir()
+    with pytest.raises(cd.CatadioptricError, match=r"path: expected a dataset folder with a manifest.json file, got "
+                                                   r".*, whose manifest.json is a folder"):
+        cd.Dataset(str(tmp_path))
