@@ -204,3 +204,36 @@ def test_missing_extra_anywhere_in_a_command_is_named(tmp_path):
     assert p.returncode == 2, p.stderr
     assert p.stderr.strip() == ("catadioptric: error: opencv-contrib-python-headless is not installed (extra "
                                 "'opencv'): pip install 'catadioptric[opencv]'")
+
+
+# ---------------------------------------------------------------- issue 39: IMAGE arguments that are not images
+@pytest.mark.parametrize("kind", ["1-D npy", "folder", "device", "empty file", "missing"])
+@pytest.mark.parametrize("command", ["detect", "relative-pose"])
+def test_an_image_that_is_not_one_is_named_for_what_it_is(kind, command, capsys, tmp_path):
+    import numpy as np
+
+    if kind == "1-D npy":
+        path = str(tmp_path / "x.npy")
+        np.save(path, np.zeros(10))
+        expected = (f"IMAGE: expected an image array of shape (H, W) or (H, W, 3), got {path!r}, an array of shape "
+                    f"(10,), which is not an image")
+    elif kind == "folder":
+        path = str(tmp_path / "d")
+        os.mkdir(path)
+        expected = (f"IMAGE: expected an image file, got the folder {path!r}" if command == "relative-pose" else
+                    f"IMAGE: expected an image file, a dataset view folder or a dataset folder, got the folder "
+                    f"{path!r} (no manifest.json in it or its parent)")
+    elif kind == "device":
+        path = "/dev/null"
+        expected = f"IMAGE: expected an image file, got {path!r}, which is not a regular file (a device, a pipe or a socket)"
+    elif kind == "empty file":
+        path = str(tmp_path / "e.png")
+        open(path, "w").close()
+        expected = f"IMAGE: expected an image file, got {path!r}, an empty file"
+    else:
+        path = str(tmp_path / "none.png")
+        expected = f"IMAGE: expected an image file, a dataset view folder or a dataset folder, got {path!r}, which does not exist"
+    images = [path] if command == "detect" else [path, path]
+    line = _fails([command, *images, "--rig", "hyperboloid", "--out", str(tmp_path / "o")], capsys)
+    assert line == "catadioptric: error: " + expected
+    assert not (tmp_path / "o").exists()

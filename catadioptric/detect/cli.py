@@ -18,13 +18,12 @@ def read_image(path: str) -> np.ndarray:
 
     if not os.path.isfile(path):
         if os.path.isdir(path):
-            what = "a folder that is not a dataset (no manifest.json in it or its parent)"
-        elif os.path.exists(path):
-            what = "not a regular file (a device, a socket or a pipe)"
-        else:
-            what = "which does not exist"
+            raise CatadioptricError(f"IMAGE: expected an image file, got the folder {path!r}")
+        if os.path.exists(path):
+            raise CatadioptricError(f"IMAGE: expected an image file, got {path!r}, which is not a regular file (a "
+                                    f"device, a pipe or a socket)")
         raise CatadioptricError(f"IMAGE: expected an image file, a dataset view folder or a dataset folder, got "
-                                f"{path!r}, {what}")
+                                f"{path!r}, which does not exist")
     if os.path.getsize(path) == 0:
         raise CatadioptricError(f"IMAGE: expected an image file, got {path!r}, an empty file")
     if path.lower().endswith(".npy"):
