@@ -19,6 +19,7 @@ between two views ``x_B = R x_A + t`` (mirror frames). Lines are Pluecker ``(s, 
 | `match_lines` | `matching.py` | a family assignment, each view's lines (unmatched) | lines matched where they meet, direction between the centres |
 | `relative_pose` | `relative.py` | the lines each view sees (matched by id, or not) | R, t, covariance, candidates, ambiguity verdict |
 | `matching_bar` | `relative.py` | the number of family assignments tried without labels | the margin an answer needs |
+| `chessboard_pose` | `chessboard.py` | an image of a chessboard (OpenCV's detector), a central camera | the board's R, t, covariance, its families' directions and vanishing points (the paper's Sec. 5.3; `catadioptric absolute-pose`) |
 | `choose_model` | `select.py` | the exact and the central answer of one pair | the rotation whose covariance promises less |
 
 See docs/relative_pose.md.
@@ -26,6 +27,7 @@ See docs/relative_pose.md.
 from __future__ import annotations
 
 from .bundle import TwoViewFit, refine_two_view
+from .chessboard import ChessboardPose, chessboard_pose, compare_board_poses
 from .central import CrossingFit, translation_direction_from_crossings
 from .epipolar import EpipolarFit, refine_with_crossings
 from .families import FamilyEstimate, ViewLines, fit_view_families
@@ -45,4 +47,5 @@ __all__ = [
     "ViewLines", "FamilyEstimate", "fit_view_families", "relative_pose", "RelativePose", "Candidate",
     "matching_bar", "MATCHING_BARS",
     "family_matches", "FamilyMatch", "match_lines", "LineMatch", "choose_model", "ModelChoice",
+    "chessboard_pose", "ChessboardPose", "compare_board_poses",
 ]
