@@ -19,7 +19,8 @@ The inverse (:meth:`MeiCamera.lift`): Newton's method on the distortion (the 2x2
 closed form, from the undistorted guess ``(xd, yd)``, to 1e-15), then the closed-form lift
 from the plane to the sphere, ``Xs = (l x, l y, l - xi)`` with
 ``l = (xi + sqrt(1 + (1 - xi^2) r2)) / (1 + r2)``. A pixel whose undistortion does not converge,
-or where the distortion folds over (its Jacobian's determinant is not positive), has no ray.
+or whose preimage lies beyond the radius where the radial distortion folds over
+(:func:`monotone_r2`; or where the Jacobian's determinant is not positive), has no ray.
 ``cv2.omnidir.undistortPoints`` is no inverse to use here: it rectifies to a perspective view
 and cannot give rays more than 90 degrees from the axis.
 """
@@ -32,7 +33,7 @@ import numpy as np
 from .._checks import CatadioptricError, as_float_array, as_scalar
 from .base import CentralCamera
 
-__all__ = ["MeiCamera"]
+__all__ = ["MeiCamera", "undistort_radtan", "monotone_r2"]
 
 
 def _radtan(x, y, k1, k2, p1, p2):
@@ -73,8 +74,17 @@ def undistort_radtan(xd, yd, k1, k2, p1, p2, iters: int = 30):
         if np.all(np.hypot(ex, ey) <= 1e-15 * scale):
             break
     fx, fy, a, b, c, d = _radtan(x, y, k1, k2, p1, p2)
-    ok = (np.hypot(fx - xd, fy - yd) <= 1e-12 * scale) & (a * d - b * c > 0)
+    ok = (np.hypot(fx - xd, fy - yd) <= 1e-12 * scale) & (a * d - b * c > 0) & (x * x + y * y < monotone_r2(k1, k2))
     return x, y, ok
+
+
+def monotone_r2(k1: float, k2: float) -> float:
+    """The squared radius up to which the radial distortion ``r (1 + k1 r^2 + k2 r^4)`` grows with
+    ``r`` (the smallest positive root of ``1 + 3 k1 s + 5 k2 s^2``, inf when none): beyond it the
+    image folds over, and a distorted point has a second preimage that is not the camera's."""
+    roots = np.roots([5.0 * k2, 3.0 * k1, 1.0]) if k2 != 0 else (np.array([-1.0 / (3.0 * k1)]) if k1 != 0 else [])
+    pos = [float(r.real) for r in np.atleast_1d(roots) if abs(r.imag) < 1e-12 and r.real > 0]
+    return min(pos) if pos else float("inf")
 
 
 @dataclass(frozen=True, eq=False, repr=False)
