@@ -96,6 +96,11 @@ class CentralCamera:
     #: (a subclass with one makes it a field)
     roi = None
 
+    #: how far (pixels) a pixel's ray may project back from it and still count as the model's
+    #: (:meth:`region`): a model whose projection is a fitted approximation of its lift's inverse
+    #: (OCamCalib's ``invpol``) sets its tool's own tolerance
+    round_trip_px = ROUND_TRIP_PX
+
     #: the direction of the optical axis in the model's frame (the mirror's axis of a catadioptric
     #: camera; its image is the centre of the mirror's disc)
     axis = (0.0, 0.0, 1.0)
@@ -195,7 +200,8 @@ class CentralCamera:
 
     def region(self) -> np.ndarray:
         """Boolean ``(H, W)``: the pixels whose ray the model gives and projects back onto the
-        pixel within :data:`ROUND_TRIP_PX`, inside :attr:`roi` when there is one."""
+        pixel within :attr:`round_trip_px` (:data:`ROUND_TRIP_PX` unless the model sets its own),
+        inside :attr:`roi` when there is one."""
         uv = self.pixel_grid()
         ok = np.zeros((self.height, self.width), bool)
         rows = max(1, 2_000_000 // max(self.width, 1))  # bounded memory on big images
@@ -205,7 +211,7 @@ class CentralCamera:
                 X, valid = self.lift(g)
                 back, vb = self.project_unit(X)
                 err = np.linalg.norm(back - g, axis=-1)
-            ok[r0:r0 + rows] = np.asarray(valid, bool) & np.asarray(vb, bool) & (err <= ROUND_TRIP_PX)
+            ok[r0:r0 + rows] = np.asarray(valid, bool) & np.asarray(vb, bool) & (err <= self.round_trip_px)
         if self.roi is not None:
             u0, v0, rmin, rmax = self.roi
             r = np.hypot(uv[..., 0] - u0, uv[..., 1] - v0)

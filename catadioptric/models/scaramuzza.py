@@ -36,9 +36,9 @@ the example of ``tests/data/ocamcalib`` (pyomniunwarp's ``calib_results.txt``) i
 the calibrated crop, elevations past the fit's range) ``invpol`` extrapolates and the mismatch
 grows to 9 px (``tests/test_models_ocamcalib.py`` checks the ROI figure against the toolbox's
 0.01 px). :meth:`lift` uses ``cam2world`` (the model's exact formula), :meth:`project_unit`
-the tool's ``world2cam``. (The image region of :meth:`CentralCamera.region` asks the round trip
-to close within :data:`~catadioptric.models.base.ROUND_TRIP_PX`, 0.001 px, tighter than this
-tool's own consistency: it keeps only the pixels where the fit happens to be that close.)
+the tool's ``world2cam``. The image region (:meth:`CentralCamera.region`) asks the round trip to
+close within the toolbox's own 0.01 px plus the 0.003 px of the coefficients' printed digits
+(``round_trip_px``, 0.013 px), the bound ``tests/test_models_ocamcalib.py`` checks.
 
 **Validity.** Every pixel has a ray (``cam2world`` is a polynomial). A direction has an image
 when its elevation ``theta`` is at most ``theta_max``, the largest elevation that ``cam2world``
@@ -103,6 +103,10 @@ class ScaramuzzaCamera(CentralCamera):
     crop: tuple = (0, 0)
 
     model = "ocamcalib"
+    #: OCamCalib's ``findinvpoly`` tolerance (0.01 px) plus the file's printed digits (0.003 px)
+    round_trip_px = 0.013
+    #: the centre pixel's ray is ``(0, 0, -1)`` (``ss[0] < 0``): the mirror's axis, towards the mirror
+    axis = (0.0, 0.0, -1.0)
 
     def __post_init__(self):
         super().__post_init__()
