@@ -226,6 +226,10 @@ def _alone_equals_batch(fn, X, res_uv, res_valid, rows):
                                                            f"{res_valid[i]} in the batch")
         d = np.nanmax(np.abs(one.uv[0] - res_uv[i]), initial=0.0)
         check(d <= 1e-12, f"row {i}: pixels differ by {d:.3g} alone and in the batch")
+    # the memory layout does not matter either: the same bits from a Fortran-ordered copy (issue 39)
+    f = fn(np.asfortranarray(X))
+    check(np.array_equal(f.valid, res_valid) and np.array_equal(f.uv, res_uv, equal_nan=True),
+          f"a Fortran-ordered batch gives other pixels (by {np.nanmax(np.abs(f.uv - res_uv), initial=0.0):.3g})")
 
 
 def project_round_trip(cam, rng, near):
@@ -315,6 +319,19 @@ def magnitudes(cam, rng, near):
     du = np.nanmax(np.abs(v1.uv - v2.uv), axis=(1, 2), initial=0.0)
     bad = [i for i in np.nonzero(du >= 1e-9)[0] if not ill_conditioned(cam, S[i], w=0)]
     check(not bad, f"vanishing pixels change by {du.max():.3g} px with the length of the directions")
+    # subnormal directions (|s| ~ 1e-320, a few bits each): the same vanishing points as the very
+    # same vectors scaled exactly (by a power of two) to ordinary lengths (issue 39: 0.035 px off)
+    sub = S * 10.0 ** rng.uniform(-322, -310, (len(S), 1))
+    keep = np.all(np.isfinite(sub), axis=1) & np.any(sub != 0, axis=1)
+    if np.any(keep):
+        sub = sub[keep]
+        e = np.frexp(np.max(np.abs(sub), axis=1))[1]
+        v1, v2 = cam.vanishing_points(sub), cam.vanishing_points(np.ldexp(sub, -e[:, None]))
+        fine = [i for i in range(len(sub)) if not ill_conditioned(cam, np.ldexp(sub[i], -e[i]), w=0)]
+        du = np.nanmax(np.abs(v1.uv - v2.uv), axis=(1, 2), initial=0.0)[fine]
+        check(np.array_equal(v1.valid[fine], v2.valid[fine]) and np.all(du < 1e-9),
+              f"vanishing points of subnormal directions differ by {du.max(initial=0.0):.3g} px from those of the "
+              f"same vectors scaled exactly")
     # far points: their images reach the vanishing points
     L = cam.mirror.scale
     lam = L * 10.0 ** rng.uniform(9, 300, len(S))
