@@ -335,6 +335,11 @@ def _rectified(grey, cam, pattern, directions):
     return None
 
 
+def _inside(uv, m) -> bool:
+    iu = np.clip(np.round(uv).astype(int), 0, [m.shape[1] - 1, m.shape[0] - 1])
+    return bool(np.all(m[iu[:, 1], iu[:, 0]]))
+
+
 def find_chessboard_corners(image, cam, pattern, *, mask=None, method: str = "auto"):
     """The inner corners ``(cols * rows, 2)`` of a chessboard in OpenCV's order and how they were
     found (``"sb"``, ``"classic"``, ``"rectified"``), or a one-line error when the board is not found.
@@ -343,37 +348,45 @@ def find_chessboard_corners(image, cam, pattern, *, mask=None, method: str = "au
     ``CALIB_CB_ACCURACY``, on the image itself), ``"classic"`` (``cv2.findChessboardCorners`` and
     ``cornerSubPix``), ``"rectified"`` (the SB detector on perspective views rendered through the
     model: towards the mask's centre when there is a mask, else on a set of directions covering
-    the sphere; the corners mapped back through the model), ``"auto"``: these in turn until one
+    the sphere, inside the mirror's disc when the image shows one; the corners mapped back through the model),
+    ``"auto"``: these in turn until one
     finds the board. ``mask``: non-zero where the board may be (the rest is filled with the masked
-    part's median grey before detection)."""
+    part's median grey before detection; if that fails, the image itself; corners outside the mask
+    are refused)."""
     if method not in ("auto", "sb", "classic", "rectified"):
         raise CatadioptricError(f"method: expected 'auto', 'sb', 'classic' or 'rectified', got {method!r}")
     pattern = parse_pattern(pattern)
     grey = _grey8(image)
     m = _check_mask(mask, grey.shape)
+    raw = grey
     if m is not None:
         grey = np.where(m, grey, np.uint8(np.median(grey[m])))
     tries = ["sb", "classic", "rectified"] if method == "auto" else [method]
     for how in tries:
-        if how == "sb":
-            uv = _sb(grey, pattern)
-        elif how == "classic":
-            uv = _classic(grey, pattern)
+        if how in ("sb", "classic"):
+            # with a mask: the masked image, then (the classic detector trips over the fill's edges) the
+            # image itself, the corners then kept only inside the mask
+            uv = None
+            for g in ([grey, raw] if m is not None else [grey]):
+                uv = _sb(g, pattern) if how == "sb" else _classic(g, pattern)
+                if uv is not None and (m is None or _inside(uv, m)):
+                    break
+                uv = None
         else:
             if m is not None:
                 vv, uu = np.nonzero(m)
                 r = cam.backproject(np.array([[uu.mean(), vv.mean()]])).directions[0]
                 dirs = [r] if np.all(np.isfinite(r)) else []
-            else:
-                dirs = [d for d in _fibonacci_directions(48)
-                        if cam.project(d[None]).valid[0, 0] and bool(cam.project(d[None]).in_image[0, 0])]
+            else:  # views 50 degrees wide about directions some 40 degrees apart, inside the mirror's disc
+                disc = mirror_disc(grey, cam)
+                fib = _fibonacci_directions(24)
+                uvf, okf = _project(cam, fib)
+                okf = okf & np.all(np.isfinite(uvf), axis=1)
+                okf[okf] &= _in_disc(uvf[okf], disc) & (cam.in_image(uvf[okf]) if hasattr(cam, "in_image") else True)
+                dirs = list(fib[okf])
             uv = _rectified(grey, cam, pattern, dirs)
-        if uv is None:
+        if uv is None or (m is not None and not _inside(uv, m)):
             continue
-        if m is not None:
-            iu = np.clip(np.round(uv).astype(int), 0, [grey.shape[1] - 1, grey.shape[0] - 1])
-            if not np.all(m[iu[:, 1], iu[:, 0]]):
-                continue
         return uv, how
     raise CatadioptricError(f"image: no {pattern[0]}x{pattern[1]} chessboard found (inner corners; tried "
                             f"{', '.join(tries)})")
