@@ -130,8 +130,8 @@ class ChessboardPose:
 
 # =========================================================================== the board
 def parse_pattern(value) -> tuple[int, int]:
-    """``"8x6"`` (or ``(8, 6)``) -> ``(cols, rows)`` of inner corners, each at least 2 and not both 2... (at
-    least 3 corners along one of them)."""
+    """``"8x6"`` (or ``(8, 6)``) -> ``(cols, rows)`` of inner corners, at least 3 along each side (a
+    line's plane needs 3 corners to have a residual)."""
     if isinstance(value, str):
         m = re.fullmatch(r"\s*(\d+)\s*[xX*,]\s*(\d+)\s*", value)
         if m is None:
@@ -804,26 +804,12 @@ def _reference(path: str, image_path: str):
 
 # =========================================================================== command
 def _camera(value: str, image):
+    """The camera of ``--rig`` (a rig name or spec, or a calibration file of OpenCV omnidir, Kalibr or
+    OCamCalib: :func:`catadioptric.cliargs.resolve_rig`), of the image's size."""
     from ..cliargs import resolve_rig
 
     h, w = image.shape[:2]
-    fmt = None
-    if os.path.isfile(value):
-        from ..formats import calibration_format
-
-        try:
-            fmt = calibration_format(value)
-        except (OSError, CatadioptricError):
-            fmt = None
-    if fmt is not None:
-        from ..formats import load_camera
-
-        try:
-            cam = load_camera(value)
-        except CatadioptricError as exc:
-            raise CatadioptricError(f"--rig: {exc}") from None
-    else:
-        cam, _ = resolve_rig(value, width=w, height=h, flag="--rig")
+    cam, _ = resolve_rig(value, width=w, height=h, flag="--rig")
     if (cam.width, cam.height) != (w, h):
         raise CatadioptricError(f"--rig: the camera is of {cam.width}x{cam.height} images, got an image of {w}x{h}")
     return cam
