@@ -487,6 +487,16 @@ def bad_cases(rng, cam, uc):
                      f"line_image seed_step={v!r}"),
                 Case("bad_options", (lambda v=v: uc.sample_line_image(P, P, num=v)), ("num",),
                      f"sample_line_image num={v!r}")]
+    # pixels that do not span a line's image: copies of one pixel (issue 39: a confident line, rms 1e-14)
+    from catadioptric.linefit import fit_line, fit_parallel_lines
+
+    nc = preset("hyperboloid_9pct", width=W, height=H)
+    one = np.tile(rng.uniform([8, 8], [W - 8, H - 8]), (int(rng.integers(5, 40)), 1))
+    out += [Case("bad_arrays", lambda: fit_line(nc, one), ("uv",), "fit_line copies of one pixel"),
+            Case("bad_arrays", lambda: fit_line(nc, np.concatenate([one, one[:4] + [1.0, 0.0]])), ("uv",),
+                 "fit_line two distinct pixels"),
+            Case("bad_arrays", lambda: fit_parallel_lines(nc, [one, one + 3.0]), ("uv_sets",),
+                 "fit_parallel_lines copies of one pixel")]
     out += [Case("bad_options", lambda: cam.vanishing_points(P, which="-s"), ("which",), "which"),
             Case("bad_options", lambda: cam.line_image(P[:1], P[1:2], lam_range=[[1.0, 0.0]]), ("lam_range",),
                  "lam_range reversed")]

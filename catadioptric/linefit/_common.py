@@ -47,6 +47,16 @@ def _check_uv(uv, name: str, min_pixels: int = 5) -> np.ndarray:
     return a
 
 
+def _check_distinct(uv: np.ndarray, name: str, min_pixels: int = 5) -> None:
+    """At least ``min_pixels`` different positions (to a millionth of a pixel) among the pixels
+    ``uv (M, 2)`` that see the world, for a fit whose unknowns the pixels must span: copies of one
+    pixel fit a line exactly and tell nothing about it."""
+    n = len(np.unique(np.round(uv, 6), axis=0))
+    if n < min_pixels:
+        raise CatadioptricError(f"{name}: expected at least {min_pixels} distinct pixels (a line's image spans "
+                                f"several), got {len(uv)} pixels at {n} distinct position(s)")
+
+
 def _check_options(loss, f_scale, pixel_sigma, inlier_threshold):
     if loss not in _LOSSES:
         raise CatadioptricError(f"loss: expected one of {list(_LOSSES)}, got {loss!r}")

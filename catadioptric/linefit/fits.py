@@ -8,6 +8,7 @@ from .._checks import CatadioptricError
 from ..cameras import CatadioptricCamera
 from ._common import (
     _check_camera,
+    _check_distinct,
     _check_fit_options,
     _check_min_distance,
     _check_options,
@@ -55,6 +56,7 @@ def fit_line(cam: CatadioptricCamera, uv, *, loss: str = "soft_l1", f_scale: flo
     dmin = _check_min_distance(min_distance, cam)
     rng = _rng(seed)
     ok, px = _prepare(cam, uv, "uv")
+    _check_distinct(px.uv, "uv")
     s, q, mask, n_hyp = _initial_line(cam, px, ransac=ransac, rng=rng, thr=thr, max_trials=int(max_trials),
                                       dmin=dmin)
     lam0 = _closest_depths(q, s, px.o, px.d)
@@ -117,6 +119,8 @@ def fit_parallel_lines(cam: CatadioptricCamera, uv_sets, *, loss: str = "soft_l1
     dmin = _check_min_distance(min_distance, cam)
     rng = _rng(seed)
     prepared = [_prepare(cam, u, f"uv_sets[{i}]") for i, u in enumerate(sets)]
+    for i, (_, px) in enumerate(prepared):
+        _check_distinct(px.uv, f"uv_sets[{i}]")
     pxs = [p[1] for p in prepared]
     o_all = np.concatenate([p.o for p in pxs])
     d_all = np.concatenate([p.d for p in pxs])
