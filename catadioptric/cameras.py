@@ -31,7 +31,11 @@ class PinholeCamera:
         K = as_float_array(self.K, "K", (3, 3))
         if K.shape != (3, 3):
             raise CatadioptricError(f"K: expected a 3x3 matrix, got an array of shape {K.shape}")
-        if abs(np.linalg.det(K)) < 1e-12 * max(1.0, np.max(np.abs(K))) ** 3:
+        # singular relative to its columns' scales (|det| over the product of their largest entries, which no
+        # choice of units for the focal lengths changes): fx = fy = 1e-5 is a fine camera matrix, whose
+        # absolute determinant (1e-10) says nothing about its conditioning
+        cols = np.max(np.abs(K), axis=0)  # (not the 2-norm, whose squares underflow for 1e-300)
+        if np.any(cols == 0) or abs(np.linalg.det(K / cols)) < 1e-12:
             raise CatadioptricError(f"K: expected an invertible intrinsic matrix, got a singular one: {K.tolist()}")
         if not (K[2, 0] == 0 and K[2, 1] == 0 and K[1, 0] == 0 and K[2, 2] == 1):
             raise CatadioptricError(
@@ -50,6 +54,9 @@ class PinholeCamera:
         K.setflags(write=False)
         object.__setattr__(self, "K", K)
         Kinv = np.linalg.inv(K)
+        if not np.all(np.isfinite(Kinv)):
+            raise CatadioptricError(f"K: expected focal lengths whose inverse is finite (at least about 1e-308, not "
+                                    f"subnormal), got {K.tolist()}")
         Kinv.setflags(write=False)
         object.__setattr__(self, "K_inv", Kinv)
 
@@ -60,8 +67,13 @@ class PinholeCamera:
         fov = as_scalar(fov_x_deg, "fov_x_deg", positive=True)
         if not fov < 180:
             raise CatadioptricError(f"fov_x_deg: expected a field of view below 180 degrees, got {fov!r}")
-        f = (width / 2.0) / np.tan(np.radians(fov) / 2.0)
-        return cls(np.array([[f, 0, (width - 1) / 2.0], [0, f, (height - 1) / 2.0], [0, 0, 1.0]]), width, height)
+        with np.errstate(over="ignore", divide="ignore"):
+            f = float((width / 2.0) / np.tan(np.radians(fov) / 2.0))
+        try:
+            return cls(np.array([[f, 0, (width - 1) / 2.0], [0, f, (height - 1) / 2.0], [0, 0, 1.0]]), width, height)
+        except CatadioptricError as exc:  # the focal length the field of view gives is no camera's
+            raise CatadioptricError(f"fov_x_deg: expected a field of view in (0, 180) degrees that gives a finite, "
+                                    f"invertible focal length, got {fov!r} (focal length {f!r} px: {exc})") from None
 
     def pixel_rays(self, uv) -> np.ndarray:
         """Unnormalised camera-frame rays ``K^-1 [u, v, 1]`` for pixels ``(..., 2)``."""

@@ -503,6 +503,20 @@ def bad_cases(rng, cam, uc):
     return out
 
 
+def _tiny_focal(rng, fov=None):
+    """A camera matrix with tiny focal lengths (issue 39: fx = fy = 1e-5 refused as singular) is
+    accepted and inverted: its pixel rays project back onto the pixels."""
+    if fov is None:
+        f = 10.0 ** rng.uniform(-8, -3)
+        pin = cd.PinholeCamera(np.array([[f, 0, 31.5], [0, f * rng.uniform(0.5, 2), 23.5], [0, 0, 1]]), W, H)
+    else:
+        pin = cd.PinholeCamera.from_fov(W, H, fov)
+    uv = rng.uniform([0, 0], [W, H], (8, 2))
+    back = pin.project(pin.pixel_rays(uv))
+    d = np.max(np.abs(back - uv))
+    check(d < 1e-9, f"K {pin.K.tolist()}: pixel rays project back {d:.3g} px off")
+
+
 def constructor_cases(rng):
     K = np.array([[100.0, 0, 31.5], [0, 100.0, 23.5], [0, 0, 1]])
     m = cd.QuadricMirror.sphere(0.05, z_min=0.0, z_max=0.05)
@@ -519,6 +533,12 @@ def constructor_cases(rng):
         Case("constructors", lambda: cd.PinholeCamera.from_fov(64, -48, 40.0), ("height",), "from_fov height<0"),
         Case("constructors", lambda: cd.PinholeCamera.from_fov(64.5, 48, 40.0), ("width",), "from_fov width=64.5"),
         Case("constructors", lambda: cd.PinholeCamera.from_fov(64, 48, "wide"), ("fov_x_deg",), "from_fov fov"),
+        Case("constructors", lambda: cd.PinholeCamera.from_fov(64, 48, 1e-320), ("fov_x_deg",), "from_fov fov=1e-320"),
+        Case("constructors", lambda: cd.PinholeCamera(np.diag([1e-310, 1e-310, 1.0]), 64, 48), ("K",),
+             "K subnormal focal lengths"),
+        Case("constructors", lambda: _tiny_focal(rng), (), "K fx = fy ~ 1e-5 (well conditioned relative to its columns)"),
+        Case("constructors", lambda: _tiny_focal(rng, fov=180.0 - 10.0 ** rng.uniform(-13, -2)), (),
+             "from_fov near 180 degrees"),
         Case("constructors", lambda: Q.paraboloid(0.01, 0.0, 0.02, opening=True), ("opening",), "opening=True"),
         Case("constructors", lambda: Q.paraboloid(0.01, 0.0, 0.02, opening=1.0 + 1e-9), ("opening",), "opening~1"),
         Case("constructors", lambda: Q.cylinder(1e-200, -1.0, 1.0), ("radius",), "cylinder radius=1e-200"),

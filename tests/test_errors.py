@@ -132,3 +132,35 @@ CASES = [
 def test_bad_input_is_refused_by_name(call, message):
     with pytest.raises(cd.CatadioptricError, match=message):
         call()
+
+
+# ---------------------------------------------------------------- issue 39: API edges
+def test_a_camera_matrix_is_judged_relative_to_its_columns():
+    """fx = fy = 1e-5 (condition number 1.5e8, determinant 1e-10) is an invertible camera matrix:
+    accepted, its inverse exact to rounding; so is the matrix of a field of view near 180 degrees."""
+    pin = cd.PinholeCamera(np.array([[1e-5, 0, 32.0], [0, 1e-5, 24.0], [0, 0, 1]]), 64, 48)
+    np.testing.assert_allclose(pin.K_inv @ pin.K, np.eye(3), atol=1e-12)
+    wide = cd.PinholeCamera.from_fov(64, 48, 179.9999)
+    assert wide.K[0, 0] == pytest.approx(32.0 / np.tan(np.radians(179.9999) / 2), rel=1e-12)
+
+
+ISSUE_39 = [
+    (lambda: cd.PinholeCamera.from_fov(64, 48, 1e-320),
+     r"fov_x_deg: expected a field of view in \(0, 180\) degrees that gives a finite, invertible focal length, got "
+     r"1e-320 \(focal length inf px"),
+    (lambda: cd.PinholeCamera.from_fov(64, 48, 180.0), r"fov_x_deg: expected a field of view below 180 degrees"),
+    (lambda: cd.PinholeCamera(np.diag([1e-310, 1e-310, 1.0]), 64, 48),
+     r"K: expected focal lengths whose inverse is finite \(at least about 1e-308, not subnormal\)"),
+    (lambda: cd.PinholeCamera(np.array([[100.0, 0, 32], [0, 0, 24], [0, 0, 1]]), 64, 48),
+     r"K: expected an invertible intrinsic matrix, got a singular one"),
+    (lambda: __import__("catadioptric.linefit", fromlist=["fit_line"]).fit_line(
+        preset("hyperboloid"), np.tile([[200.0, 300.0]], (10, 1))),
+     r"uv: expected at least 5 distinct pixels \(a line's image spans several\), got 10 pixels at 1 distinct "
+     r"position\(s\)"),
+]
+
+
+@pytest.mark.parametrize("call,message", ISSUE_39, ids=[str(i) for i in range(len(ISSUE_39))])
+def test_api_edges_are_refused_by_name(call, message):
+    with pytest.raises(cd.CatadioptricError, match=message):
+        call()
