@@ -12,7 +12,7 @@ import catadioptric as cd
 from catadioptric.rigs import preset
 from catadioptric.scenes import SPEC_DIR, build_scene, load_spec, read_scene_spec, scene_rig, views
 from catadioptric.scenes.builder import canonical_direction
-from catadioptric.scenes.spec import board_frame
+from catadioptric.scenes.spec import as_spec, board_frame, board_size
 
 trimesh = pytest.importorskip("trimesh")
 
@@ -424,3 +424,26 @@ def test_load_spec_errors(tmp_path):
     j.write_text(json.dumps(_raw()))
     spec = load_spec(j)
     assert spec["source"] == str(j.resolve()) and spec["buildings"]["yaw_deg"] == [0.0, 10.0]
+
+
+def test_overlapping_windows_and_a_view_inside_a_board_are_refused():
+    """Issue 39: windows closer than their width (overlapping panes, labels off the tracer) and a
+    view inside a chessboard (the board seen through the mirror from within) are spec errors
+    naming the key."""
+    _err(lambda r: r["windows"].update(spacing=1.0),
+         r"^scene\.windows\.spacing: expected more than width = 1\.2 \+ 2 lines\.radius = 1\.3 \(the distance "
+         r"between neighbouring windows' centres; less overlaps their panes\), got 1\.0$")
+    _err(lambda r: r["windows"].update(spacing=1.2, lines=False), r"^scene\.windows\.spacing: expected more than "
+         r"width = 1\.2 \(the distance")
+    raw = _raw(TINY)
+    raw["windows"].update(spacing=1.0, facades="none")  # no windows: no panes to overlap
+    build_scene(raw)
+    cb = SCENES / "chessboard.toml"
+    raw = _raw(cb)
+    b = raw["chessboard"]["boards"][0]
+    spec = as_spec(raw)
+    board = spec["chessboard"]["boards"][0]
+    inside = (np.asarray(board["center"]) - 0.5 * board_size(spec, board)[3] * board_frame(board)[:, 2]).tolist()
+    _err(lambda r: r["views"][0].update(position=inside),
+         rf"^scene\.views\[0\]\.position: expected a point outside every chessboard, got \[.*\], inside the board "
+         rf"{b.get('name', 'board0')!r} \(the mirror would see the board from within\)$", cb)

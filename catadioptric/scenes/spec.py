@@ -188,6 +188,15 @@ def _check_street(spec: dict) -> None:
         raise CatadioptricError(
             f"scene.lines.radius: expected less than a quarter of the window size min(width, height) / 4 = "
             f"{min(w['width'], w['height']) / 4!r} (the window's edge tubes would merge), got {r!r}")
+    if w["facades"] != "none":
+        # panes side by side, centres spacing apart: they must not overlap or touch, nor their edge
+        # tubes (lines.radius about each edge) merge between them
+        tubes = 2 * r if w["lines"] else 0.0
+        if not w["spacing"] > w["width"] + tubes:
+            need = f"width = {w['width']!r}" + (f" + 2 lines.radius = {w['width'] + tubes!r}" if tubes else "")
+            raise CatadioptricError(
+                f"scene.windows.spacing: expected more than {need} (the distance between neighbouring windows' "
+                f"centres; less overlaps their panes), got {w['spacing']!r}")
     half = st["road_width"] / 2
     if not m["edge_offset"] + m["width"] / 2 < half:
         raise CatadioptricError(
@@ -267,10 +276,21 @@ def _check_chessboard(spec: dict) -> None:
             raise CatadioptricError(
                 f"scene.chessboard.boards[{i}].center: the board reaches below the ground (lowest point "
                 f"z = {low:.4g} m); raise it or tilt it")
+    boards = []
+    for b in spec["chessboard"]["boards"]:
+        (nx, ny), s, border, thick = board_size(spec, b)
+        boards.append((b["name"], board_frame(b), np.asarray(b["center"], float), nx * s / 2 + border,
+                       ny * s / 2 + border, thick))
     for where, v in _all_views(spec):
         if not v["position"][2] > 0:
             raise CatadioptricError(f"{where}.position: expected a point above the ground (z > 0), "
                                     f"got {v['position']!r}")
+        for name, R, c, hw, hh, thick in boards:  # the board's slab: its face at n = 0, its back at -thickness
+            u, w_, n = (np.asarray(v["position"], float) - c) @ R
+            if abs(u) <= hw and abs(w_) <= hh and -thick <= n <= 0.0:
+                raise CatadioptricError(
+                    f"{where}.position: expected a point outside every chessboard, got {v['position']!r}, inside "
+                    f"the board {name!r} (the mirror would see the board from within)")
 
 
 # ---------------------------------------------------------------------- root
