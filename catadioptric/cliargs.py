@@ -16,11 +16,14 @@ import sys
 from ._checks import CatadioptricError
 
 __all__ = ["Parser", "positive_int", "nonnegative_int", "positive_float", "nonnegative_float", "flag_error",
-           "resolve_rig", "check_out_dir", "parse_resolution", "check_scheduler", "RIG_HELP"]
+           "resolve_rig", "check_out_dir", "parse_resolution", "check_scheduler", "RIG_HELP",
+           "CALIBRATION_RIG_HELP"]
 
 #: The help text of every ``--rig``.
-RIG_HELP = ("a rig name (a packaged rig spec or preset: catadioptric.rigspec.rig_names()), a rig spec file, or a "
-            "calibration file of OpenCV omnidir (YAML/XML), Kalibr (camchain YAML) or OCamCalib (calib_results.txt)")
+RIG_HELP = "a rig name (a packaged rig spec or preset: catadioptric.rigspec.rig_names()) or a rig spec file"
+#: The help text of the ``--rig`` of the commands that take any central camera (detection, pose).
+CALIBRATION_RIG_HELP = (RIG_HELP + ", or a calibration file of OpenCV omnidir (YAML/XML), Kalibr (camchain YAML) "
+                        "or OCamCalib (calib_results.txt)")
 
 
 class Parser(argparse.ArgumentParser):
@@ -75,14 +78,16 @@ def flag_error(flag: str, exc, param: str | None = None) -> CatadioptricError:
 
 # ------------------------------------------------------------------ --rig
 def resolve_rig(value: str, *, width: int | None = None, height: int | None = None, flag: str = "--rig",
-                camera: str | None = None):
+                camera: str | None = None, calibrations: bool = False):
     """The camera of a ``--rig`` value and its description ``{"name", "spec"}``. The value is a rig
     name (a packaged rig spec file or a preset of ``catadioptric.rigs``) or a rig spec file (TOML
     or JSON), as everywhere (``load_rig``; ``spec``: the normalised rig spec), or a calibration
     file of OpenCV omnidir, Kalibr or OCamCalib (:func:`catadioptric.formats.load_camera`, recognised
     by content; ``camera``: the camera of a Kalibr camchain; ``spec``: ``{"calibration": format,
-    "camera": cam.to_dict()}``). A calibration fixes the image size: ``width``/``height``, when
-    given (the image's), must match it."""
+    "camera": cam.to_dict()}``), for the commands that take any central camera
+    (``calibrations=True``: detection and pose; rendering, exports and the centrality figures
+    need an exact rig and refuse one). A calibration fixes the image size: ``width``/``height``,
+    when given (the image's), must match it."""
     from .formats import calibration_format, load_camera
     from .rigspec import load_rig, load_rig_spec, rig_from_spec
 
@@ -93,6 +98,10 @@ def resolve_rig(value: str, *, width: int | None = None, height: int | None = No
         except (OSError, CatadioptricError):
             fmt = None
     if fmt is not None:
+        if not calibrations:
+            raise CatadioptricError(f"{flag}: expected a rig name or a rig spec file (this command needs an exact rig: "
+                                    f"a mirror and a pinhole), got the {fmt} calibration file {value!r} (calibration "
+                                    f"files are taken by detect, relative-pose and absolute-pose)")
         try:
             cam = load_camera(value, camera=camera)
         except CatadioptricError as exc:

@@ -161,11 +161,13 @@ def test_calibration_as_rig_checks_the_image_size(tmp_path):
     p = tmp_path / "calib.yml"
     _write_filestorage(p, camera_matrix=K, xi=XI, distortion_coefficients=np.array([D]), image_width=1280,
                        image_height=1024)
-    cam, desc = resolve_rig(str(p), width=1280, height=1024)
+    cam, desc = resolve_rig(str(p), width=1280, height=1024, calibrations=True)
+    with pytest.raises(CatadioptricError, match=r"^--rig: expected a rig name or a rig spec file \(this command needs an exact rig"):
+        resolve_rig(str(p))
     assert isinstance(cam, MeiCamera) and desc["spec"]["calibration"] == "opencv"
     with pytest.raises(CatadioptricError, match=r"^--rig: the calibration .* is of 1280x1024 images, got an image "
                                                 r"of 640x480$"):
-        resolve_rig(str(p), width=640, height=480)
+        resolve_rig(str(p), width=640, height=480, calibrations=True)
     with pytest.raises(CatadioptricError, match=r"^--camera: only for a Kalibr camchain"):
         resolve_rig("hyperboloid", camera="cam1")
 

@@ -7,7 +7,7 @@ import os
 import numpy as np
 
 from .._checks import CatadioptricError
-from ..cliargs import RIG_HELP, check_out_dir, nonnegative_float, positive_float, positive_int, resolve_rig
+from ..cliargs import CALIBRATION_RIG_HELP, check_out_dir, nonnegative_float, positive_float, positive_int, resolve_rig
 
 __all__ = ["register", "read_image", "read_mask", "camera_from_folder"]
 
@@ -136,7 +136,7 @@ def _run(args) -> int:
     if os.path.isdir(args.rig):
         cam = camera_from_folder(args.rig)
     else:
-        cam, _ = resolve_rig(args.rig, width=w, height=h, camera=args.camera)
+        cam, _ = resolve_rig(args.rig, width=w, height=h, camera=args.camera, calibrations=True)
     mask = read_mask(args.mask, (h, w)) if args.mask else None
     det = detect_lines(image, cam, mask=mask, **options)
     os.makedirs(args.out, exist_ok=True)
@@ -158,7 +158,7 @@ def register(sub) -> None:
                                    "camera and scored against their labels.")
     p.add_argument("input", metavar="IMAGE", help="an image file (PNG, JPEG, TIFF, .npy), a dataset view folder or a "
                                                   "dataset folder")
-    p.add_argument("--rig", metavar="RIG", help=RIG_HELP + ", or a dataset (view) folder whose stored camera to use")
+    p.add_argument("--rig", metavar="RIG", help=CALIBRATION_RIG_HELP + ", or a dataset (view) folder whose stored camera to use")
     p.add_argument("--camera", metavar="camN", help="the camera of a Kalibr camchain given as --rig (cam0, cam1, ...)")
     p.add_argument("--mask", metavar="PNG", help="a mask of the image's size: non-zero where a pixel may be used "
                                                  "(zero on what moves or does not belong to the scene)")

@@ -16,6 +16,7 @@
 from __future__ import annotations
 
 import json
+from typing import NamedTuple
 
 import numpy as np
 
@@ -60,13 +61,13 @@ def mirror_region(cam, erode_px: int = 3) -> np.ndarray:
     return m.astype(bool)
 
 
-class Annulus(tuple):
-    """``(u0, v0, r_in, r_out)``: the centre and radii (pixels) of the mirror's bright annulus."""
+class Annulus(NamedTuple):
+    """The centre ``(u0, v0)`` and radii ``r_in``, ``r_out`` (pixels) of the mirror's bright annulus."""
 
-    __slots__ = ()
-
-    def __new__(cls, u0, v0, r_in, r_out):
-        return super().__new__(cls, (float(u0), float(v0), float(r_in), float(r_out)))
+    u0: float
+    v0: float
+    r_in: float
+    r_out: float
 
     def mask(self, shape, margin: float = 0.0) -> np.ndarray:
         H, W = shape
@@ -129,7 +130,7 @@ def scene_annulus(grey: np.ndarray, region: np.ndarray, centre, *, bins: int = 7
             break
     if r_in == 0 and not np.isfinite(r_out):
         return None
-    return Annulus(u0, v0, r_in, r_out)
+    return Annulus(float(u0), float(v0), float(r_in), float(r_out))
 
 
 def check_mask(mask, shape, name: str = "mask") -> np.ndarray:

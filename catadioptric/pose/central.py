@@ -28,7 +28,8 @@ import numpy as np
 
 from .rotation import skew
 
-__all__ = ["MeetingRays", "meeting_rays", "CrossingFit", "translation_direction_from_crossings"]
+__all__ = ["MeetingRays", "meeting_rays", "CrossingFit", "translation_direction_from_crossings", "Parallax", "parallax",
+           "PARALLAX_P", "Twins", "rotation_twins"]
 
 
 @dataclass
@@ -294,3 +295,130 @@ def translation_direction_from_crossings(rays: MeetingRays | None, R, *, sigma_p
     cov = E @ np.linalg.pinv(J.T @ J) @ E.T if inl.sum() >= 2 else np.full((3, 3), np.nan)
     return CrossingFit(t=t, cov=cov, cost=float(cost[0]), n_crossings=len(A), n_inliers=int(inl.sum()),
                        n_lines=rays.n_lines, threshold_rad=float(thr), inliers=inl)
+
+
+@dataclass
+class Parallax:
+    """Whether two central views show parallax under ``R``: ``chi2`` of the inlier meeting rays'
+    angles between ``R x_A`` and ``x_B`` (each over its deviation), ``dof`` (two per ray),
+    ``p_value`` of ``chi2`` under no motion, ``observable``: the translation is seen (``p_value``
+    below :data:`PARALLAX_P`), ``n_rays``: the rays tested, ``median_deg``: their median angle."""
+
+    chi2: float
+    dof: int
+    p_value: float
+    observable: bool
+    n_rays: int
+    median_deg: float
+
+
+#: a translation is reported as seen when no motion explains the meeting rays with a p-value below this
+PARALLAX_P = 1e-3
+
+
+def parallax(rays: MeetingRays | None, R, fit: CrossingFit | None) -> Parallax | None:
+    """Does the translation show at all? A camera turned in place (on a tripod, or not moved) or
+    moved by much less than its distance to the lines sees every meeting point along the same
+    ray in both views, up to ``R``: the direction of ``t`` is then noise, and reporting it would
+    be a wild answer. The test: the meeting rays that the crossing fit took as inliers (``fit``),
+    their angles between ``R x_A`` and ``x_B``, each over its deviation (propagated from the
+    planes' fits, at least a third of the fit's inlier threshold, as the fit itself weighs them),
+    summed as a chi-square with two degrees of freedom per ray; no parallax when its p-value is at
+    least :data:`PARALLAX_P`. None when there is nothing to test."""
+    from scipy.stats import chi2 as chi2_dist
+
+    if rays is None or fit is None or fit.inliers is None or not np.any(fit.inliers):
+        return None
+    k = np.flatnonzero(fit.inliers)
+    p = rays.xa[k] @ np.asarray(R, float).T
+    q = rays.xb[k]
+    ang = np.arctan2(np.linalg.norm(np.cross(p, q), axis=1), np.sum(p * q, axis=1))
+    sd = np.full(len(k), fit.threshold_rad / 3.0)
+    if rays.cov_a is not None and rays.cov_b is not None:
+        ca = np.asarray(R) @ rays.cov_a[k] @ np.asarray(R).T
+        own = np.sqrt(0.5 * (np.trace(ca, axis1=1, axis2=2) + np.trace(rays.cov_b[k], axis1=1, axis2=2)))
+        sd = np.maximum(sd, own)
+    c2 = float(np.sum((ang / sd) ** 2))
+    dof = 2 * len(k)
+    pv = float(chi2_dist.sf(c2, dof))
+    return Parallax(c2, dof, pv, pv < PARALLAX_P, len(k), float(np.degrees(np.median(ang))))
+
+
+@dataclass
+class Twins:
+    """Lines of view A seen again in view B as they were, up to ``R`` (a camera turned in place):
+    ``pairs``: ``(family, line of A, line of B)``; ``lines_a``: the lines of A's matched families
+    tested."""
+
+    pairs: list
+    lines_a: int
+
+
+def rotation_twins(view_a, view_b, ea, eb, keys, R, *, chi2_max: float = 9.21, floor_rad: float = 0.0,
+                   overlap: float = 0.5) -> Twins:
+    """The lines of A that B sees unchanged under ``R`` alone: a line of B of the same family whose
+    interpretation plane is ``R`` times the A line's (the angle between the normals, sign-free,
+    within ``chi2_max`` of their combined deviation (2 degrees of freedom; at least ``floor_rad``),
+    and whose arc on that plane overlaps the rotated arc of A's by ``overlap`` of the shorter (the same
+    segment where it was, not another line of the family in the same plane by chance). A camera
+    that did not move sees nearly every line of the scene's still part so; a moving one, only
+    lines far enough for the baseline not to show."""
+    R = np.asarray(R, float)
+    pairs, tested = [], 0
+    for k in keys:
+        if k not in ea or k not in eb:
+            continue
+        A, B = ea[k], eb[k]
+        nA = A.normals @ R.T
+        tested += len(A.lines)
+        ang = np.arccos(np.clip(np.abs(nA @ B.normals.T), 0.0, 1.0))
+        CA = A.normal_covs if A.normal_covs is not None else np.zeros((len(A.lines), 3, 3))
+        CB = B.normal_covs if B.normal_covs is not None else np.zeros((len(B.lines), 3, 3))
+        var_a = 0.5 * np.trace(CA, axis1=1, axis2=2)
+        var_b = 0.5 * np.trace(CB, axis1=1, axis2=2)
+        arcs_b = [_arc(view_b, B, m, B.normals[m]) for m in range(len(B.lines))]
+        used = set()
+        for i in np.argsort(ang.min(axis=1)):
+            var = var_a[i] + var_b + floor_rad**2
+            ok = np.flatnonzero((ang[i] ** 2 <= chi2_max * var) & (var > 0))
+            for m in ok[np.argsort(ang[i, ok])]:
+                if m in used:
+                    continue
+                ra = _arc(view_a, A, i, B.normals[m], R)
+                if ra is not None and arcs_b[m] is not None and _overlap(ra, arcs_b[m]) >= overlap:
+                    pairs.append((k, A.lines[i], B.lines[m]))
+                    used.add(m)
+                    break
+    return Twins(pairs, tested)
+
+
+def _arc(view, est, k, n, R=None):
+    """The interval of angles ``(lo, hi)`` that line ``k`` of ``est`` covers on the great circle of
+    the plane with normal ``n`` (its rays rotated by ``R`` first), or None."""
+    line = est.lines[k]
+    r = view.cam.backproject(view.uv[line][est.inliers[k]])
+    d = r.directions[r.valid]
+    if len(d) < 2:
+        return None
+    if R is not None:
+        d = d @ R.T
+    e1 = d[0] - (d[0] @ n) * n
+    e1 /= max(np.linalg.norm(e1), 1e-300)
+    e2 = np.cross(n, e1)
+    phi = np.arctan2(d @ e2, d @ e1)  # relative to the first ray: a segment spans less than a half-turn
+    return float(phi.min()), float(phi.max()), e1, e2
+
+
+def _overlap(a, b) -> float:
+    """The overlap of two arcs (each ``(lo, hi, e1, e2)`` in its own basis, on one plane) over the shorter."""
+    lo_a, hi_a, e1a, e2a = a
+    lo_b, hi_b, e1b, e2b = b
+    # the angle of b's basis in a's
+    off = np.arctan2(e1b @ e2a, e1b @ e1a)
+    lo_b, hi_b = lo_b + off, hi_b + off
+    # bring b near a (angles modulo a full turn)
+    shift = 2 * np.pi * np.round(((lo_b + hi_b) - (lo_a + hi_a)) / (4 * np.pi))
+    lo_b, hi_b = lo_b - shift, hi_b - shift
+    inter = min(hi_a, hi_b) - max(lo_a, lo_b)
+    shorter = min(hi_a - lo_a, hi_b - lo_b)
+    return float(inter / shorter) if shorter > 0 else 0.0

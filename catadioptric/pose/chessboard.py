@@ -809,7 +809,7 @@ def _camera(value: str, image):
     from ..cliargs import resolve_rig
 
     h, w = image.shape[:2]
-    cam, _ = resolve_rig(value, width=w, height=h, flag="--rig")
+    cam, _ = resolve_rig(value, width=w, height=h, flag="--rig", calibrations=True)
     if (cam.width, cam.height) != (w, h):
         raise CatadioptricError(f"--rig: the camera is of {cam.width}x{cam.height} images, got an image of {w}x{h}")
     return cam
@@ -871,7 +871,7 @@ def _run(args) -> int:
 
 
 def register(sub) -> None:
-    from ..cliargs import RIG_HELP, positive_float
+    from ..cliargs import CALIBRATION_RIG_HELP, positive_float
 
     p = sub.add_parser("absolute-pose", help="the pose of a chessboard in one image (the paper's Sec. 5.3)",
                        description="Find a chessboard's inner corners, fit its two families of lines through the "
@@ -880,7 +880,7 @@ def register(sub) -> None:
                                    "with its covariance. Writes pose.json, overlay.png and report.md into --out "
                                    "(docs/absolute_pose.md).")
     p.add_argument("image", metavar="IMAGE", help="the image (PNG, JPEG, TIFF, .npy)")
-    p.add_argument("--rig", required=True, metavar="CALIB", help=RIG_HELP)
+    p.add_argument("--rig", required=True, metavar="CALIB", help=CALIBRATION_RIG_HELP)
     p.add_argument("--chessboard", required=True, metavar="COLSxROWS",
                    help="inner corners along a row and along a column, e.g. 8x6")
     p.add_argument("--square", required=True, type=positive_float, metavar="METRES", help="the squares' side")

@@ -3,6 +3,7 @@
     catadioptric validate relative-pose DATASET --views A B --out DIR [--noise PX ...] [--draws N] ...
     catadioptric validate benchmark [--spec FILE] [--quick] --out DIR [--workers N]
     catadioptric validate noise-sweep --out DIR [--trials N] [--seed N]
+    catadioptric validate real --data DIR --out DIR [--max-rotation DEG]
 
 ``relative-pose`` exits with code 3 when a draw's answer is ambiguous (its report lists every
 candidate), 2 on bad input, 0 otherwise.
@@ -195,3 +196,6 @@ def register(sub) -> None:
     n.add_argument("--trials", type=positive_int, default=100, help="trials per noise level (default 100)")
     n.add_argument("--seed", type=int, default=0, help="seed (default 0)")
     n.set_defaults(func=_noise_sweep)
+    from .real import register_real
+
+    register_real(vs)

@@ -1,0 +1,354 @@
+"""``catadioptric validate real``: the project on real catadioptric photographs, with numbers.
+
+The folder given (``../shared/real`` in CI and for the committed report, ``validate/real/``) holds
+``mei/`` (a paracatadioptric camera calibrated with ``cv2.omnidir``: ``mei_omnidir.yaml``,
+images ``img_para_*.png`` of a fixed camera and a moving chessboard, ``board_extrinsics.json``
+with OpenCV's pose of the board for some of them, ``masks/`` of the board) and ``ocamcalib/``
+(a photograph of a room and its OCamCalib ``calib_results.txt``). The report measures:
+
+* **board axes**: per image with extrinsics, the angle between each of the board's axes
+  (``R[:, 0]``, ``R[:, 1]``, OpenCV's extrinsics) and the nearest family direction the detector
+  finds with the board's mask (the paper's vanishing points turned into directions, on a real
+  camera);
+* **static pairs**: every pair of images, no mask: the camera did not move, so the truth is the
+  identity (a person and the board move: they are the scene's outliers);
+* **board pairs**: pairs of images with extrinsics, with the board's masks: the board's motion
+  ``R_j R_i^T`` up to the board's line symmetries (a half-turn about any of its axes maps its
+  lines onto themselves: such answers tie, and must come out ``ambiguous`` with each listed);
+* **absolute pose** of the board (:func:`catadioptric.pose.chessboard.chessboard_pose`) against
+  OpenCV's extrinsics, when that module is present;
+* **the OCamCalib room**: its three dominant families (most lines) and their pairwise angles (a
+  Manhattan room: 90 degrees).
+
+The Mei images' terms are unknown: the overlays written for them draw the detected curves on a
+plain background, never the photograph's pixels.
+"""
+from __future__ import annotations
+
+import glob
+import json
+import os
+import time
+from itertools import combinations
+
+import numpy as np
+
+from .._checks import CatadioptricError
+
+__all__ = ["run_real", "real_markdown", "board_symmetries", "angle_to_nearest", "register_real"]
+
+#: the board's line symmetries in its own frame: identity and the half-turns about its axes
+BOARD_SYMMETRIES = (np.eye(3), np.diag([1.0, -1.0, -1.0]), np.diag([-1.0, 1.0, -1.0]), np.diag([-1.0, -1.0, 1.0]))
+
+
+def _angle_deg(R) -> float:
+    return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0))))
+
+
+def board_symmetries(R_i, R_j) -> list[np.ndarray]:
+    """The camera-frame motions ``R_j S R_i^T`` of a board between two images, one per line
+    symmetry ``S`` of the board (:data:`BOARD_SYMMETRIES`): each maps its lines as the truth does."""
+    return [R_j @ S @ R_i.T for S in BOARD_SYMMETRIES]
+
+
+def angle_to_nearest(R, truths) -> tuple[float, int]:
+    """The smallest rotation angle (degrees) from ``R`` to one of ``truths``, and its index."""
+    a = [_angle_deg(R @ T.T) for T in truths]
+    k = int(np.argmin(a))
+    return a[k], k
+
+
+def _rodrigues(rvec) -> np.ndarray:
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_rotvec(np.asarray(rvec, float)).as_matrix()
+
+
+def _read(path, grey=False):
+    import cv2
+
+    img = cv2.imread(path, cv2.IMREAD_GRAYSCALE if grey else cv2.IMREAD_UNCHANGED)
+    if img is None:
+        raise CatadioptricError(f"--data: {path!r} is not an image OpenCV can read")
+    if img.ndim == 3:
+        img = np.ascontiguousarray(img[..., [2, 1, 0]])
+    return img
+
+
+def _curves_only(det, shape, scale: int = 1) -> np.ndarray:
+    """The detection drawn on a plain grey background (no pixel of the photograph), with the
+    mirror's annulus."""
+    import cv2
+
+    from ..detect.overlay import overlay_image
+
+    plain = np.full(shape[:2], 96, np.uint8)
+    out = overlay_image(plain, det, scale=scale)
+    if det.annulus is not None:
+        u0, v0, ri, ro = det.annulus
+        for r in (ri, ro):
+            if np.isfinite(r):
+                cv2.circle(out, (int(round((u0 + 0.5) * scale - 0.5)), int(round((v0 + 0.5) * scale - 0.5))),
+                           int(round(r * scale)), (255, 255, 255), 1, cv2.LINE_AA)
+    return out
+
+
+def _pose_row(res, truths, label):
+    from ..pose import rotation_angle_deg
+
+    p = res.pose
+    err, k = angle_to_nearest(p.R, truths)
+    cands = []
+    for c in p.candidates[:8]:
+        e, kk = angle_to_nearest(np.asarray(c.R, float), truths)
+        cands.append({"turn_deg": rotation_angle_deg(np.asarray(c.R, float)), "error_deg": e, "symmetry": kk,
+                      "cost": float(c.cost)})
+    return {"pair": label, "turn_deg": rotation_angle_deg(p.R), "error_deg": err, "symmetry": k,
+            "ambiguous": bool(p.ambiguous), "margin": float(p.margin), "rotation_std_deg": float(p.rotation_std_deg),
+            "families": len(res.family_map), "lines_matched": int(p.lines_matched),
+            "t": None if p.t is None else np.asarray(p.t, float).tolist(),
+            "translation_observable": bool(getattr(p, "translation_observable", True)),
+            "candidates": cands, "notes": list(p.notes)}
+
+
+def run_real(data: str, out: str, *, max_rotation_deg: float | None = None, progress: bool = True) -> dict:
+    """Run every measurement of the module docstring on the folder ``data`` and write the
+    overlays into ``out``; returns the results (JSON-ready)."""
+    from ..detect import detect_lines
+    from ..detect.report import write_png
+    from ..formats import load_camera
+    from ..twoview import pair_overlay, pose_from_detections
+
+    def say(msg):
+        if progress:
+            print(msg, flush=True)
+
+    mei = os.path.join(data, "mei")
+    calib = os.path.join(mei, "mei_omnidir.yaml")
+    for p in (calib, os.path.join(mei, "board_extrinsics.json")):
+        if not os.path.isfile(p):
+            raise CatadioptricError(f"--data: expected {p!r} (a folder laid out as ../shared/real), it is missing")
+    cam = load_camera(calib)
+    ext = json.load(open(os.path.join(mei, "board_extrinsics.json")))
+    views = ext["views"]
+    names = sorted(os.path.basename(p) for p in glob.glob(os.path.join(mei, "img_para_*.png")))
+    os.makedirs(out, exist_ok=True)
+    t0 = time.perf_counter()
+    images = {n: _read(os.path.join(mei, n), grey=True) for n in names}
+    masks = {}
+    for n in names:
+        mp = os.path.join(mei, "masks", n)
+        if os.path.isfile(mp):
+            masks[n] = _read(mp, grey=True) > 0
+    dets, dets_board = {}, {}
+    for n in names:
+        say(f"detect {n}")
+        dets[n] = detect_lines(images[n], cam)
+        write_png(os.path.join(out, f"mei_{n[:-4]}_lines.png"), _curves_only(dets[n], images[n].shape))
+        if n in masks:
+            dets_board[n] = detect_lines(images[n], cam, mask=masks[n])
+            write_png(os.path.join(out, f"mei_{n[:-4]}_board.png"), _curves_only(dets_board[n], images[n].shape))
+    # 1. the board's axes against the families found with its mask
+    axes = []
+    for n in names:
+        if n not in views or n not in dets_board:
+            continue
+        R = _rodrigues(views[n]["rvec"])
+        S = np.array([f.direction for f in dets_board[n].families]).reshape(-1, 3)
+        for k, axis in ((0, "x (rows)"), (1, "y (columns)")):
+            a = np.degrees(np.arccos(np.clip(np.abs(S @ R[:, k]), 0.0, 1.0))) if len(S) else np.array([np.inf])
+            j = int(np.argmin(a))
+            axes.append({"image": n, "axis": axis, "angle_deg": float(a[j]), "family": j if len(S) else None,
+                         "family_lines": len(dets_board[n].families[j].lines) if len(S) else 0,
+                         "families": len(S)})
+    # 2. the static camera: every pair, no mask
+    static = []
+    for a, b in combinations(names, 2):
+        say(f"static pair {a} {b}")
+        try:
+            res = pose_from_detections(dets[a], dets[b], max_rotation_deg=max_rotation_deg)
+        except CatadioptricError as exc:
+            static.append({"pair": f"{a} {b}", "failed": str(exc)})
+            continue
+        static.append(_pose_row(res, [np.eye(3)], f"{a} {b}"))
+        write_png(os.path.join(out, f"mei_static_{a[:-4]}_{b[:-4]}.png"),
+                  pair_overlay(np.full_like(images[a], 96), np.full_like(images[b], 96), res))
+    # 3. the board's motion, with its masks
+    board = []
+    with_ext = [n for n in names if n in views and n in dets_board]
+    for a, b in combinations(with_ext, 2):
+        say(f"board pair {a} {b}")
+        truths = board_symmetries(_rodrigues(views[a]["rvec"]), _rodrigues(views[b]["rvec"]))
+        try:
+            res = pose_from_detections(dets_board[a], dets_board[b], max_rotation_deg=max_rotation_deg)
+        except CatadioptricError as exc:
+            board.append({"pair": f"{a} {b}", "failed": str(exc)})
+            continue
+        board.append(_pose_row(res, truths, f"{a} {b}"))
+    # 4. the board's absolute pose
+    absolute = _absolute(images, masks, views, cam, out, say)
+    # 5. the OCamCalib room
+    room = _room(os.path.join(data, "ocamcalib"), out, say)
+    return {"format": "catadioptric-real-report/1", "data": os.path.abspath(data), "camera": cam.to_dict(),
+            "max_rotation_deg": max_rotation_deg, "board_axes": axes, "static_pairs": static, "board_pairs": board,
+            "absolute_pose": absolute, "ocamcalib_room": room,
+            "detections": {n: {"lines": len(d), "families": len(d.families), "annulus": list(d.annulus or []),
+                               "seconds": d.seconds.get("total")} for n, d in dets.items()},
+            "seconds": time.perf_counter() - t0}
+
+
+def _absolute(images, masks, views, cam, out, say) -> list:
+    try:
+        from ..pose.chessboard import chessboard_pose
+    except ImportError:
+        return []
+    rows = []
+    for n in sorted(views):
+        if n not in images:
+            continue
+        say(f"absolute pose {n}")
+        R_cv = _rodrigues(views[n]["rvec"])
+        t_cv = np.asarray(views[n]["tvec"], float)
+        try:
+            bp = chessboard_pose(images[n], cam, pattern=(8, 6), square=0.042, mask=masks.get(n))
+        except CatadioptricError as exc:
+            rows.append({"image": n, "failed": str(exc)})
+            continue
+        # up to the board's symmetry: its corners' order may start at the other end (a half-turn about
+        # its z axis through its centre, which leaves the centre where it is)
+        centre = np.array([3.5, 2.5, 0.0]) * 0.042
+        best = min(((_angle_deg(bp.R @ S @ R_cv.T), S) for S in (np.eye(3), np.diag([-1.0, -1.0, 1.0]))),
+                   key=lambda x: x[0])
+        c_est = bp.R @ centre + bp.t
+        c_cv = R_cv @ centre + t_cv
+        rows.append({"image": n, "rotation_error_deg": best[0], "symmetry_used": not np.allclose(best[1], np.eye(3)),
+                     "centre_error_m": float(np.linalg.norm(c_est - c_cv)), "distance_m": float(np.linalg.norm(c_cv)),
+                     "centre_error_rel": float(np.linalg.norm(c_est - c_cv) / np.linalg.norm(c_cv))})
+    return rows
+
+
+def _room(folder, out, say) -> dict | None:
+    from ..detect import detect_lines
+    from ..detect.overlay import overlay_image
+    from ..detect.report import write_png
+    from ..formats import load_camera
+
+    calib = os.path.join(folder, "calib_results.txt")
+    photo = os.path.join(folder, "example.jpg")
+    if not (os.path.isfile(calib) and os.path.isfile(photo)):
+        return None
+    say("detect the OCamCalib room")
+    cam = load_camera(calib)
+    img = _read(photo)
+    det = detect_lines(img, cam)
+    write_png(os.path.join(out, "ocamcalib_room.png"), overlay_image(img, det, scale=1))
+    fams = sorted(range(len(det.families)), key=lambda f: -len(det.families[f].lines))[:3]
+    S = np.array([det.families[f].direction for f in fams]).reshape(-1, 3)
+    pairs = []
+    for i, j in combinations(range(len(fams)), 2):
+        a = float(np.degrees(np.arccos(np.clip(abs(S[i] @ S[j]), 0.0, 1.0))))
+        pairs.append({"families": [fams[i], fams[j]], "angle_deg": a, "off_orthogonal_deg": 90.0 - a})
+    return {"families": [{"family": f, "lines": len(det.families[f].lines),
+                          "direction": det.families[f].direction.tolist()} for f in fams],
+            "pairs": pairs, "lines": len(det), "all_families": len(det.families),
+            "annulus": list(det.annulus or []), "seconds": det.seconds.get("total")}
+
+
+def _f(x, nd=3):
+    return "-" if x is None else (f"{x:.{nd}f}" if isinstance(x, float) and np.isfinite(x) else str(x))
+
+
+def real_markdown(res: dict, command: str) -> str:
+    """The report's Markdown: one table per measurement, the overlays."""
+    L = ["# Real catadioptric photographs", "", f"Command: `{command}` ({res['seconds']:.0f} s)", "",
+         "Camera: OpenCV omnidir calibration of `mei/` (Mei's model, read by `catadioptric.formats.load_camera`); "
+         "directions in omnidir's camera frame. The Mei images are not committed (terms unknown): their overlays "
+         "show the detected curves on a plain background, coloured by family, with the mirror's annulus found in "
+         "the photograph (white circles).", ""]
+    if res["max_rotation_deg"] is not None:
+        L += [f"Prior: the views turn by at most {res['max_rotation_deg']} degrees.", ""]
+    L += ["## The board's axes against the families detected with its mask", "",
+          "| image | board axis | angle to the nearest family (deg) | its lines | families found |", "|---|---|---|---|---|"]
+    L += [f"| {r['image']} | {r['axis']} | {_f(r['angle_deg'])} | {r['family_lines']} | {r['families']} |"
+          for r in res["board_axes"]]
+    L += ["", "## The static camera (no mask; the truth is the identity)", "",
+          "| pair | turn (deg) | verdict (margin) | families / lines matched | translation | best candidates: turn (deg) |",
+          "|---|---|---|---|---|---|"]
+    for r in res["static_pairs"]:
+        if "failed" in r:
+            L.append(f"| {r['pair']} | failed: {r['failed']} | | | | |")
+            continue
+        tr = "not observable (no parallax)" if not r["translation_observable"] else (
+            "none" if r["t"] is None else "direction " + str(np.round(r["t"], 3).tolist()))
+        verdict = ("**ambiguous**" if r["ambiguous"] else "decisive") + f" ({r['margin']:.1f})"
+        cands = ", ".join(f"{c['turn_deg']:.1f}" for c in r["candidates"][:4])
+        L.append(f"| {r['pair']} | {r['error_deg']:.3f} | {verdict} | {r['families']} / {r['lines_matched']} | {tr} | "
+                 f"{cands} |")
+    L += ["", "## The board's motion (board masks; truth `R_j R_i^T` up to the board's line symmetries)", "",
+          "| pair | error to the nearest symmetric truth (deg) | which | verdict (margin) | candidates: error (deg) / "
+          "symmetry |", "|---|---|---|---|---|"]
+    sym = ["identity", "half-turn about x", "half-turn about y", "half-turn about z"]
+    for r in res["board_pairs"]:
+        if "failed" in r:
+            L.append(f"| {r['pair']} | failed: {r['failed']} | | | |")
+            continue
+        verdict = ("**ambiguous**" if r["ambiguous"] else "decisive") + f" ({r['margin']:.1f})"
+        cands = ", ".join(f"{c['error_deg']:.2f}/{c['symmetry']}" for c in r["candidates"][:4])
+        L.append(f"| {r['pair']} | {r['error_deg']:.3f} | {sym[r['symmetry']]} | {verdict} | {cands} |")
+    if res["absolute_pose"]:
+        L += ["", "## The board's absolute pose against OpenCV's extrinsics", "",
+              "| image | rotation error (deg) | corner order reversed | centre error (m) | distance (m) | relative |",
+              "|---|---|---|---|---|---|"]
+        for r in res["absolute_pose"]:
+            if "failed" in r:
+                L.append(f"| {r['image']} | failed: {r['failed']} | | | | |")
+                continue
+            L.append(f"| {r['image']} | {r['rotation_error_deg']:.3f} | {r['symmetry_used']} | {r['centre_error_m']:.4f} "
+                     f"| {r['distance_m']:.3f} | {100 * r['centre_error_rel']:.2f} % |")
+    room = res["ocamcalib_room"]
+    if room:
+        L += ["", "## The OCamCalib room: its three dominant families", "",
+              f"{room['lines']} lines, {room['all_families']} families; the three with most lines:", "",
+              "| families | angle (deg) | off orthogonal (deg) |", "|---|---|---|"]
+        L += [f"| {p['families'][0]} & {p['families'][1]} | {p['angle_deg']:.2f} | {p['off_orthogonal_deg']:.2f} |"
+              for p in room["pairs"]]
+        L += ["", "![room](ocamcalib_room.png)"]
+    L += ["", "## Overlays", ""]
+    for n in sorted(res["detections"]):
+        stem = n[:-4]
+        L.append(f"![{stem}](mei_{stem}_lines.png)")
+    return "\n".join(L) + "\n"
+
+
+def _run(args) -> int:
+    import shlex
+    import sys
+
+    from ..cliargs import check_out_dir
+    from .report import write_report
+
+    out = check_out_dir(args.out)
+    if not os.path.isdir(args.data):
+        raise CatadioptricError(f"--data: expected a folder of real images laid out as ../shared/real, got {args.data!r}")
+    res = run_real(args.data, out, max_rotation_deg=args.max_rotation, progress=not args.no_progress)
+    command = getattr(args, "command_line", None) or "catadioptric " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    from .._io import jsonable
+
+    write_report(out, jsonable(res), real_markdown(res, command))
+    print(f"wrote {os.path.join(out, 'report.md')}, report.json and the overlays")
+    return 0
+
+
+def register_real(vs) -> None:
+    """Add ``validate real`` to the ``validate`` subparsers ``vs``."""
+    from ..cliargs import positive_float
+
+    p = vs.add_parser("real", help="vanishing points, families and pose on real catadioptric photographs",
+                      description="Detection, the board's axes, the static camera's relative pose, the board's "
+                                  "motion and absolute pose, and the OCamCalib room's families, on a folder laid out "
+                                  "as ../shared/real (docs/relative_pose.md, \"Real cameras\").")
+    p.add_argument("--data", required=True, metavar="DIR", help="the folder of real images (e.g. ../shared/real)")
+    p.add_argument("--out", required=True, metavar="DIR", help="report folder (e.g. validate/real)")
+    p.add_argument("--max-rotation", type=positive_float, metavar="DEG", help="prior on the pairs' rotation")
+    p.add_argument("--no-progress", action="store_true", help="no progress lines")
+    p.set_defaults(func=_run, command_line=None)
