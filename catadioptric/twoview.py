@@ -51,7 +51,9 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
 
     ``image_a``, ``image_b``: arrays (RGB or grey; uint8, uint16 or float in [0, 1]) taken by
     ``cam_a`` and ``cam_b`` (default ``cam_a``). ``detect_options``: options of
-    :func:`catadioptric.detect.detect_lines`; ``masks``: the two images' masks (non-zero: use the
+    :func:`catadioptric.detect.detect_lines` (when one image is grey and the other colour and
+    ``colour`` is not given, both are detected on luminance, ``colour=False``: the detector would
+    otherwise see other lines in each; the notes say so); ``masks``: the two images' masks (non-zero: use the
     pixel; None: all), for what moves or does not belong to the scene. ``min_pixels``: shortest line
     used by the pose.
     ``max_rotation_deg``: a prior on the motion (see :func:`catadioptric.pose.relative_pose`):
@@ -62,22 +64,44 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
     :data:`COVARIANCE_SCALE`, measured on rendered pairs; 1: the fit's own). Raises :class:`CatadioptricError` naming the cause when a view has fewer than two families.
     """
     from .detect import detect_lines
+    from .detect.image import to_channels
 
     cam_b = cam_a if cam_b is None else cam_b
     if not (isinstance(min_pixels, (int, np.integer)) and min_pixels >= 2):
         raise CatadioptricError(f"min_pixels: expected an integer >= 2, got {min_pixels!r}")
     opts = dict(detect_options or {})
+    grey = []
+    for name, img in (("A", image_a), ("B", image_b)):
+        try:
+            grey.append(to_channels(img).shape[2] == 1)
+        except CatadioptricError as exc:
+            raise CatadioptricError(f"image {name}: {exc}") from None
+    mixed = None
+    if grey[0] != grey[1] and "colour" not in opts:
+        # the detector takes a colour image's edges on its RGB channels and a grey one's on one channel:
+        # it would see other lines in each (a grey and a colour image of one scene came out decisive,
+        # 118 degrees off); both on luminance, the same lines
+        opts["colour"] = False
+        mixed = (f"image {'A' if grey[0] else 'B'} is grey and image {'B' if grey[0] else 'A'} colour: both "
+                 f"detected on luminance (detect option colour=False), so that both see the same lines")
     t0 = time.perf_counter()
     dets = []
     for name, img, cam, mask in (("A", image_a, cam_a, masks[0]), ("B", image_b, cam_b, masks[1])):
         try:
             dets.append(detect_lines(img, cam, mask=mask, **opts))
         except CatadioptricError as exc:
-            raise CatadioptricError(f"image {name}: {exc}") from None
+            raise CatadioptricError(f"image {name}: {exc}" + ("" if mixed is None else f" ({mixed})")) from None
     t1 = time.perf_counter()
-    res = pose_from_detections(dets[0], dets[1], min_pixels=min_pixels, max_rotation_deg=max_rotation_deg,
-                               decisive=decisive, decisive_matching=decisive_matching, seed=seed, joint=joint,
-                               covariance_scale=covariance_scale)
+    try:
+        res = pose_from_detections(dets[0], dets[1], min_pixels=min_pixels, max_rotation_deg=max_rotation_deg,
+                                   decisive=decisive, decisive_matching=decisive_matching, seed=seed, joint=joint,
+                                   covariance_scale=covariance_scale)
+    except CatadioptricError as exc:
+        if mixed is None:
+            raise
+        raise CatadioptricError(f"{exc} ({mixed})") from None
+    if mixed is not None:
+        res.pose.notes = [mixed, *res.pose.notes]
     t2 = time.perf_counter()
     res.seconds = {"detect": t1 - t0, "pose": t2 - t1, "total": t2 - t0}
     return res
@@ -281,7 +305,8 @@ def _run(args) -> int:
     def camera(value, flag, img, which):
         if os.path.isdir(value):
             return camera_from_folder(value, flag)
-        return resolve_rig(value, width=img.shape[1], height=img.shape[0], flag=flag, camera=which)[0]
+        return resolve_rig(value, width=img.shape[1], height=img.shape[0], flag=flag, camera=which,
+                           calibrations=True)[0]
 
     cam_a = camera(args.rig, "--rig", images[0], args.camera)
     cam_b = camera(args.rig_b or args.rig, "--rig-b" if args.rig_b else "--rig", images[1],
@@ -311,7 +336,7 @@ def _run(args) -> int:
 
 
 def register(sub) -> None:
-    from .cliargs import RIG_HELP, positive_float, positive_int
+    from .cliargs import CALIBRATION_RIG_HELP, positive_float, positive_int
 
     p = sub.add_parser("relative-pose", help="relative pose from two images alone (no labels)",
                        description="Detect the line curves of two images of a catadioptric rig, group them into "
@@ -322,7 +347,7 @@ def register(sub) -> None:
     p.add_argument("image_a", metavar="IMAGE_A", help="first image (PNG, JPEG, TIFF, .npy)")
     p.add_argument("image_b", metavar="IMAGE_B", help="second image")
     p.add_argument("--rig", required=True, metavar="RIG",
-                   help=RIG_HELP + ", or a dataset (view) folder whose stored camera took the images")
+                   help=CALIBRATION_RIG_HELP + ", or a dataset (view) folder whose stored camera took the images")
     p.add_argument("--rig-b", metavar="RIG", help="the rig of IMAGE_B when it differs (default: --rig)")
     p.add_argument("--camera", metavar="camN", help="the camera of a Kalibr camchain given as --rig (cam0, cam1, ...)")
     p.add_argument("--camera-b", metavar="camN", help="the camera of a Kalibr camchain for IMAGE_B (default: --camera)")

@@ -137,7 +137,11 @@ class LineMatch:
     B)]`` (indices into each view's lines), ``t`` the unit displacement between the centres,
     ``cost`` the truncated (MSAC) cost over A's meeting rays, each counted only where the lines
     matched to its two lines meet in B (``n_inliers`` of them), ``n_crossings`` (A's meeting
-    rays)."""
+    rays). When nothing can be matched (fewer than two meeting rays in a view, or fewer than two
+    meeting rays of A near one of B under the assignment's rotation), ``t`` is None, no meeting
+    ray of A is found in B and the cost is the truncated cost's ceiling, ``c2`` per meeting ray of
+    A: an assignment whose lines cannot be matched is scored as one whose lines match nothing, not
+    left out (an infinite cost made every such rival lose, and the winner's margin infinite)."""
 
     pairs: list
     t: np.ndarray | None
@@ -183,7 +187,7 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
     xa, la, pa = _crossings(view_a, ea, {k: k for k in ea})
     xb, lb, pb = _crossings(view_b, eb, {b: a for b, (a, _) in match.mapping.items()})
     if len(xa) < 2 or len(xb) < 2:
-        return LineMatch([], None, float("inf"), 0, len(xa))
+        return LineMatch([], None, float(c2 * len(xa)), 0, len(xa))
     # B's lines were ordered by A's family keys, so the two lines of a pair correspond in order
     by_pair: dict = {}
     for j, p in enumerate(pb):
@@ -201,7 +205,7 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
         cand_i += [i] * len(js)
         cand_j += list(js)
     if len(cand_i) < 2:
-        return LineMatch([], None, float("inf"), 0, len(xa))
+        return LineMatch([], None, float(c2 * len(xa)), 0, len(xa))
     ci, cj = np.array(cand_i), np.array(cand_j)
     p_, q_ = ra[ci], xb[cj]
     A = np.cross(p_, q_)
@@ -216,7 +220,7 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
     nt = np.linalg.norm(T, axis=1)
     T = T[nt > 1e-9] / nt[nt > 1e-9, None]
     if len(T) == 0:
-        return LineMatch([], None, float("inf"), 0, len(xa))
+        return LineMatch([], None, float(c2 * len(xa)), 0, len(xa))
     T = np.concatenate([T, -T])
 
     def per_crossing_cost(Ts):

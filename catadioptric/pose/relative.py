@@ -30,7 +30,7 @@ import numpy as np
 
 from .._checks import CatadioptricError, as_scalar
 from .bundle import TwoViewFit
-from .central import _residual_weights, meeting_rays, translation_direction_from_crossings
+from .central import CrossingFit, _residual_weights, meeting_rays, parallax, translation_direction_from_crossings
 from .epipolar import refine_with_crossings
 from .families import FamilyEstimate, ViewLines, fit_view_families, is_central
 from .rotation import rotation_angle_deg
@@ -43,6 +43,19 @@ __all__ = ["Candidate", "RelativePose", "relative_pose", "matching_bar", "MATCHI
 _FITS = 4.0  # a refinement fits the pixels when its robust cost is at most this per pixel (about 2 sigma)
 _SAME_DEG = 5.0  # two answers whose rotations are closer than this are one answer (the ambiguities are
 # discrete: half-turns, permutations of the families)
+#: The inlier meeting rays the first stage's best candidate needs before the first stage may tell the sign
+#: candidates apart (leave one unrefined, or decide a central answer by where lines meet): each meeting
+#: ray adds at most 9 chi-square units to a candidate's score, and with few of them a wrong candidate
+#: finds more by chance than the right one finds by meeting (docs/relative_pose.md, "The verdict at
+#: wide baselines": a wide pair with 12 meeting rays gave a half-turn 7 inliers, the right rotation 4-5,
+#: and the half-turn was answered, margin 26.6; on the benchmark's pairs the best has 40 or more).
+MIN_MEETINGS = 20
+#: Then the refinement's margin too is weak evidence: lines seen in both views of a (near-)central rig
+#: meet in any rotation's planes, and the half-turns that fit the directions differ in little but the
+#: nuisance (each line's distance, where the refinement stops along the flat scale), whose chance gap
+#: grows with the pixels fitted: the bar is at least this many chi-square units per pixel of the best fit
+#: (calibrated on validate/relative_pose_wide.toml; docs/relative_pose.md, "The verdict at wide baselines").
+WEAK_BAR_PER_PIXEL = 0.5
 
 #: The margin an answer matched without labels needs over the next different answer when
 #: ``decisive_matching`` is None (:func:`matching_bar`): ``(most assignments, bar)`` pairs, the first
@@ -85,7 +98,11 @@ class RelativePose:
     (inf with one candidate); ``candidates``: every candidate, best first. ``families``: the
     family keys used; ``lines_matched``: lines seen in both views and used; ``model``:
     ``"non-central"`` or ``"central"``; ``sigma_px``: pixel noise estimate; ``estimates``:
-    the per-view :class:`FamilyEstimate` dicts; ``notes``: what was dropped and why."""
+    the per-view :class:`FamilyEstimate` dicts; ``notes``: what was dropped and why;
+    ``parallax``: for a central model, whether the meeting rays show the translation at all
+    (:func:`~catadioptric.pose.central.parallax`); when they do not (a camera turned in place, or a
+    baseline too small for its distance to the lines), ``t`` is zero and ``translation_observable``
+    is False."""
 
     R: np.ndarray
     t: np.ndarray | None
@@ -100,6 +117,16 @@ class RelativePose:
     sigma_px: float
     estimates: tuple = field(repr=False, default=())
     notes: list = field(default_factory=list)
+    #: the inlier meeting rays of the first stage's best candidate (``MIN_MEETINGS``; None without labels)
+    meeting_inliers: int | None = None
+    #: the margin the answer needed to be decisive (``decisive``, more when the first stage is weak)
+    bar: float | None = None
+    parallax: object = None
+
+    @property
+    def translation_observable(self) -> bool:
+        """False when a central model's meeting rays show no parallax (``t`` is then zero)."""
+        return self.parallax is None or bool(self.parallax.observable)
 
     @property
     def rotation_std_deg(self) -> float:
@@ -315,6 +342,15 @@ def matching_bar(n_assignments: int) -> float:
     raise AssertionError("MATCHING_BARS ends with (None, bar)")
 
 
+def _direction_margin(out):
+    """The margin of the first candidate of ``out`` over the next different answer (rotations more
+    than ``_SAME_DEG`` apart) by the directions' cost alone (0 when a different answer fits them as
+    well; inf when there is none)."""
+    gaps = [o.direction_cost - out[0].direction_cost for o in out[1:]
+            if rotation_angle_deg(o.R @ out[0].R.T) > _SAME_DEG]
+    return max(0.0, min(gaps)) if gaps else float("inf")
+
+
 def _within_prior(cands, max_rotation_deg, what):
     """The candidates (anything with ``.R``) that turn by at most ``max_rotation_deg``."""
     if max_rotation_deg is None:
@@ -397,8 +433,14 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
     stage = []
     for c in cands:
         cr = translation_direction_from_crossings(rays, c.R, sigma_px=sigma_cost, seed=seed)
-        stage.append((c.cost + (cr.cost if cr is not None else 0.0), c, cr))
+        # a rotation under which the meeting rays give no direction is scored as if none of them fitted
+        # (the truncated cost's ceiling, 9 each), not as if they all fitted perfectly (0)
+        stage.append((c.cost + (cr.cost if cr is not None else 0.0 if rays is None else 9.0 * len(rays.xa)), c, cr))
     stage.sort(key=lambda x: x[0])
+    # how much the first stage knows: with few inlier meeting rays its ranking of the sign candidates is
+    # chance (MIN_MEETINGS), and only the directions' part of its cost is evidence
+    n_meet = 0 if stage[0][2] is None else int(stage[0][2].n_inliers)
+    weak = n_meet < MIN_MEETINGS
     out = []
     n_matched = rays.n_lines if rays is not None else 0
     for score1, c, cr in stage:
@@ -418,11 +460,19 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
                 t = cr.t if cr_r is None else cr_r.t
         out.append(Candidate(dict(zip(keys, c.signs.astype(int))), R, t, score1, c.cost, cov, cr))
     margin = out[1].cost - out[0].cost if len(out) > 1 else float("inf")
+    if weak and len(out) > 1:
+        margin = _direction_margin(out)
+        if not central:
+            notes.append(f"the first stage rests on {n_meet} inlier meeting rays (fewer than {MIN_MEETINGS}): every "
+                         f"sign candidate refined on the pixels, none dismissed by where lines meet")
+        else:
+            notes.append(f"the answer rests on {n_meet} inlier meeting rays (fewer than {MIN_MEETINGS}): its margin is "
+                         f"the directions' alone ({margin:.1f}), where lines meet does not tell the candidates apart")
     if not central:
         # stage 2: the metric refinement on the pixels of both views. The best candidate of stage 1 and
         # every one stage 1 cannot tell from it (within ``decisive``) are refined and ranked by the
         # refinement's cost; if the best of stage 1 then does not fit the pixels, every candidate is.
-        todo = [i for i, o in enumerate(out) if o.cost < out[0].cost + decisive]
+        todo = [i for i, o in enumerate(out) if o.cost < out[0].cost + decisive or weak]
         done = set()
         while todo:
             for i in todo:
@@ -439,14 +489,23 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
             todo = [] if good or not fits else [i for i in range(len(out)) if i not in done]
         refined = sorted((out[i] for i in done if isinstance(out[i].fit, TwoViewFit)), key=lambda o: o.cost)
         if refined:
+            # a rival whose refinement failed (no crossing fit under its rotation) was not scored by the
+            # refinement: it counts by its stage-1 cost over the winner's, as the rivals never refined do
+            # (it was refined because stage 1 could not tell it from the best), not as no rival at all
+            s_win = next(stage[i][0] for i in done if out[i] is refined[0])
+            failed = [max(0.0, stage[i][0] - s_win) for i in done if not isinstance(out[i].fit, TwoViewFit)
+                      and rotation_angle_deg(out[i].R @ refined[0].R.T) > _SAME_DEG]
             rest = [o for i, o in enumerate(out) if i not in done or not isinstance(o.fit, TwoViewFit)]
             out = refined + rest
             # the margin is to the next different answer (two candidates that refine to the same rotation
             # are one answer); candidates never refined lost stage 1 by at least ``decisive``
             others = [o.cost - refined[0].cost for o in refined[1:]
-                      if rotation_angle_deg(o.R @ refined[0].R.T) > _SAME_DEG]
+                      if rotation_angle_deg(o.R @ refined[0].R.T) > _SAME_DEG] + failed
             if len(done) < len(stage):
                 others.append(max(decisive, min(s[0] for i, s in enumerate(stage) if i not in done) - stage[0][0]))
+            if failed:
+                notes.append(f"{len(failed)} rival answers could not be refined on the pixels: counted by their "
+                             f"first-stage cost over the best's (margin {min(failed):.1f} from them)")
             margin = min(others) if others else float("inf")
     best = out[0]
     if not central and not isinstance(best.fit, TwoViewFit):
@@ -459,10 +518,25 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
         cov = np.full((6, 6), np.nan)
         cov[:3, :3] = next(s[1].cov for s in stage if rotation_angle_deg(s[1].R @ best.R.T) < 1e-9)
     sigma = best.fit.sigma if isinstance(best.fit, TwoViewFit) else sigma_est
-    return RelativePose(R=best.R, t=best.t, cov=cov, metric=isinstance(best.fit, TwoViewFit),
-                        ambiguous=bool(margin < decisive), margin=float(margin), candidates=out, families=keys,
+    bar = decisive
+    if weak and isinstance(best.fit, TwoViewFit) and len(out) > 1:
+        bar = max(decisive, WEAK_BAR_PER_PIXEL * float(np.sum(best.fit.n_pixels)))
+        if decisive <= margin < bar:
+            notes.append(f"margin {margin:.1f} on the pixels, against the bar of {bar:.0f} of an answer whose first "
+                         f"stage is weak ({WEAK_BAR_PER_PIXEL:g} per pixel fitted): ambiguous")
+    par, t_best = None, best.t
+    if central and t_best is not None and isinstance(best.fit, CrossingFit):
+        par = parallax(rays, best.R, best.fit)
+        if par is not None and not par.observable:
+            t_best = np.zeros(3)
+            notes.append(f"no parallax: the {par.n_rays} meeting points agree with a rotation alone (median "
+                         f"{par.median_deg:.3g} deg apart, chi-square {par.chi2:.1f} on {par.dof} degrees of freedom, "
+                         f"p = {par.p_value:.2g}): a camera turned in place, or a baseline too small to see; t is "
+                         f"reported as zero (its direction is not observable)")
+    return RelativePose(R=best.R, t=t_best, cov=cov, metric=isinstance(best.fit, TwoViewFit), parallax=par,
+                        ambiguous=bool(margin < bar), margin=float(margin), candidates=out, families=keys,
                         lines_matched=n_matched, model="central" if central else "non-central", sigma_px=float(sigma),
-                        estimates=(ea, eb), notes=notes)
+                        estimates=(ea, eb), notes=notes, meeting_inliers=n_meet, bar=float(bar))
 
 
 def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families, max_rotation_deg,
@@ -493,10 +567,24 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
     for m in matches:
         lm = match_lines(view_a, view_b, ea, eb, m, sigma_px=sigma, seed=seed)
         scored.append((m.cost + lm.cost, m, lm))
-    scored.sort(key=lambda x: x[0])
+    scored.sort(key=lambda x: x[0] if np.isfinite(x[0]) else np.inf)
     best_score, best, lines = scored[0]
     others = [s for s, m, _ in scored[1:] if rotation_angle_deg(m.R @ best.R.T) > _SAME_DEG]
     margin = (min(others) - best_score) if others else float("inf")
+    # a rival that cannot be scored is no evidence for the winner: the answer is then ambiguous
+    # (match_lines scores an assignment whose lines match nothing at its cost's ceiling, so this
+    # holds only for costs that are not numbers at all; an infinite margin from unscored rivals
+    # read as certainty: a grey and a colour image of one scene came out decisive, 118 degrees off)
+    unscored = [s for s, m, _ in scored[1:] if not np.isfinite(s) and rotation_angle_deg(m.R @ best.R.T) > _SAME_DEG]
+    why_unscored = None
+    if not np.isfinite(best_score):
+        why_unscored = "no family assignment could be scored (its cost is not finite)"
+    elif unscored:
+        why_unscored = f"{len(unscored)} rival assignments could not be scored (their cost is not finite)"
+    if why_unscored is not None:
+        finite = [s for s in others if np.isfinite(s)]
+        margin = max(0.0, min(finite) - best_score) if finite and np.isfinite(best_score) else 0.0
+    no_lines = sum(1 for _, _, lm in scored if lm.t is None and lm.n_crossings > 0)
     # relabel: B's families as A's (with the assignment's signs), matched lines with one id
     # lines left unmatched keep an id of their own view (seen in one view only)
     a_id = [f"a{i}" for i in range(len(view_a.uv))]
@@ -514,12 +602,18 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
     res.candidates[0] = Candidate(res.candidates[0].signs, res.R, res.t, best_score, best.cost, res.cov, lines)
     res.margin = float(margin)
     bar = max(decisive, matching_bar(len(scored)) if decisive_matching is None else decisive_matching)
-    res.ambiguous = bool(margin < bar)
+    res.ambiguous = bool(margin < bar) or why_unscored is not None
     prior = "" if max_rotation_deg is None else f" (within the prior max_rotation_deg = {max_rotation_deg})"
+    extra = []
+    if no_lines:
+        extra.append(f"{no_lines} of the {len(scored)} assignments matched no lines (no two meeting points of A near "
+                     f"one of B under their rotation): scored as finding none of A's meeting points in B")
+    if why_unscored is not None:
+        extra.append(f"ambiguous: {why_unscored}, and an unscored rival is no evidence for the best answer")
     res.notes = [(f"families and lines matched without labels: {len(best.mapping)} families, {len(lines.pairs)} "
                   f"lines ({lines.n_inliers} of {lines.n_crossings} meeting points of A found in B); "
                   f"{len(scored)} family assignments tried{prior}; margin {margin:.1f} over the next answer "
-                  f"against a bar of {bar:g}"), *res.notes]
+                  f"against a bar of {bar:g}"), *extra, *res.notes]
     res.notes += [f"family {k} of A not used: {v}" for k, v in fail_a.items()]
     res.notes += [f"family {k} of B not used: {v}" for k, v in fail_b.items()]
     return res
