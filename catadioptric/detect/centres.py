@@ -25,6 +25,9 @@ from .edges import Edges
 
 __all__ = ["Centres", "pair_edges", "step_edges"]
 
+# points per block of :func:`pair_edges` (its arrays hold ``neighbours`` entries per point)
+_BLOCK = 1 << 15
+
 
 @dataclass
 class Centres:
@@ -94,23 +97,33 @@ def pair_edges(edges: Edges, *, max_width: float = 6.0, min_width: float = 0.5, 
         return _empty(), used
     p, n = edges.uv, edges.normal
     k = min(neighbours, N)
-    dist, idx = cKDTree(p).query(p, k=k, distance_upper_bound=max_width + max_lateral)
-    ok = np.isfinite(dist) & (idx != np.arange(N)[:, None])
-    idx = np.where(ok, idx, 0)
-    q, m = p[idx], n[idx]  # (N, k, 2)
-    d = q - p[:, None, :]
-    nm = np.einsum("ni,nki->nk", n, m)
-    t_perp = np.array([-1.0, 1.0]) * n[:, ::-1]  # (N, 2): n rotated by 90 degrees
-    lateral = np.abs(np.einsum("ni,nki->nk", t_perp, d))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        t = np.einsum("nki,nki->nk", d, m) / nm
-    ok &= (nm < -np.cos(np.radians(max_angle_deg))) & (lateral <= max_lateral)
-    ok &= (np.abs(t) >= min_width) & (np.abs(t) <= max_width)
-    score = np.where(ok, np.abs(t) + 0.25 * lateral, np.inf)
-    best = np.argmin(score, axis=1)
-    has = np.isfinite(score[np.arange(N), best])
-    partner = np.where(has, idx[np.arange(N), best], -1)
-    tb = t[np.arange(N), best]
+    tree = cKDTree(p)
+    has = np.zeros(N, dtype=bool)
+    partner = np.full(N, -1, dtype=np.int64)
+    tb = np.zeros(N)
+    # in blocks of points: the (points, k, 2) arrays of all the edge points at once took 345 MiB on a
+    # 2000x2000 render; each point's partner is its own, the same in any block
+    for a in range(0, N, _BLOCK):
+        pa, na = p[a:a + _BLOCK], n[a:a + _BLOCK]
+        M = len(pa)
+        dist, idx = tree.query(pa, k=k, distance_upper_bound=max_width + max_lateral)
+        ok = np.isfinite(dist) & (idx != np.arange(a, a + M)[:, None])
+        idx = np.where(ok, idx, 0)
+        q, m = p[idx], n[idx]  # (M, k, 2)
+        d = q - pa[:, None, :]
+        nm = np.einsum("ni,nki->nk", na, m)
+        t_perp = np.array([-1.0, 1.0]) * na[:, ::-1]  # (M, 2): n rotated by 90 degrees
+        lateral = np.abs(np.einsum("ni,nki->nk", t_perp, d))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            t = np.einsum("nki,nki->nk", d, m) / nm
+        ok &= (nm < -np.cos(np.radians(max_angle_deg))) & (lateral <= max_lateral)
+        ok &= (np.abs(t) >= min_width) & (np.abs(t) <= max_width)
+        score = np.where(ok, np.abs(t) + 0.25 * lateral, np.inf)
+        best = np.argmin(score, axis=1)
+        r = np.arange(M)
+        has[a:a + M] = np.isfinite(score[r, best])
+        partner[a:a + M] = np.where(has[a:a + M], idx[r, best], -1)
+        tb[a:a + M] = t[r, best]
     # mutual: the partner's own partner lies within a pixel of p
     pp = np.where(partner >= 0, partner, 0)
     back = partner[pp]

@@ -20,33 +20,44 @@ from .centres import Centres
 
 __all__ = ["link_chains", "join_chains", "resample_chain"]
 
+# points per block of the linking's neighbour search (its arrays hold 12 neighbours per point)
+_BLOCK = 1 << 15
+
 
 def _choices(c: Centres, radius: float, max_lateral: float, max_turn_deg: float, min_step: float, k: int):
     from scipy.spatial import cKDTree
 
     N = len(c)
     k = min(k, N)
-    dist, idx = cKDTree(c.uv).query(c.uv, k=k, distance_upper_bound=radius)
-    ok = np.isfinite(dist) & (idx != np.arange(N)[:, None])
-    idx = np.where(ok, idx, 0)
-    d = c.uv[idx] - c.uv[:, None, :]
-    T = c.tangent
-    along = np.einsum("ni,nki->nk", T, d)
-    lat = np.abs(T[:, None, 0] * d[..., 1] - T[:, None, 1] * d[..., 0])
-    # bands: tangents parallel either way; step edges: gradients the same way
-    turn = np.einsum("ni,nki->nk", c.normal, c.normal[idx])
-    turn = np.where(c.polarity[:, None] == 0, turn, np.abs(turn))
-    ok &= (lat <= max_lateral + np.abs(along) / 3.0) & (turn >= np.cos(np.radians(max_turn_deg)))
-    ok &= (np.abs(along) >= min_step) & (c.polarity[idx] == c.polarity[:, None])
-    wr = c.width[idx] / np.maximum(c.width[:, None], 1e-9)
-    ok &= ((wr <= 2.0) & (wr >= 0.5)) | (c.polarity[:, None] == 0)
-    cost = np.hypot(along, lat) + 2.0 * lat
-    fw = np.where(ok & (along > 0), cost, np.inf)
-    bw = np.where(ok & (along < 0), cost, np.inf)
-    r = np.arange(N)
-    jf, jb = np.argmin(fw, axis=1), np.argmin(bw, axis=1)
-    fwd = np.where(np.isfinite(fw[r, jf]), idx[r, jf], -1)
-    bwd = np.where(np.isfinite(bw[r, jb]), idx[r, jb], -1)
+    tree = cKDTree(c.uv)
+    T_all = c.tangent
+    fwd = np.full(N, -1, dtype=np.int64)
+    bwd = np.full(N, -1, dtype=np.int64)
+    # in blocks of points (each point's choice is its own): bounded (points, k) arrays
+    for a in range(0, N, _BLOCK):
+        b = min(a + _BLOCK, N)
+        uv, T, nrm, pol, wid = c.uv[a:b], T_all[a:b], c.normal[a:b], c.polarity[a:b], c.width[a:b]
+        M = b - a
+        dist, idx = tree.query(uv, k=k, distance_upper_bound=radius)
+        ok = np.isfinite(dist) & (idx != np.arange(a, b)[:, None])
+        idx = np.where(ok, idx, 0)
+        d = c.uv[idx] - uv[:, None, :]
+        along = np.einsum("ni,nki->nk", T, d)
+        lat = np.abs(T[:, None, 0] * d[..., 1] - T[:, None, 1] * d[..., 0])
+        # bands: tangents parallel either way; step edges: gradients the same way
+        turn = np.einsum("ni,nki->nk", nrm, c.normal[idx])
+        turn = np.where(pol[:, None] == 0, turn, np.abs(turn))
+        ok &= (lat <= max_lateral + np.abs(along) / 3.0) & (turn >= np.cos(np.radians(max_turn_deg)))
+        ok &= (np.abs(along) >= min_step) & (c.polarity[idx] == pol[:, None])
+        wr = c.width[idx] / np.maximum(wid[:, None], 1e-9)
+        ok &= ((wr <= 2.0) & (wr >= 0.5)) | (pol[:, None] == 0)
+        cost = np.hypot(along, lat) + 2.0 * lat
+        fw = np.where(ok & (along > 0), cost, np.inf)
+        bw = np.where(ok & (along < 0), cost, np.inf)
+        r = np.arange(M)
+        jf, jb = np.argmin(fw, axis=1), np.argmin(bw, axis=1)
+        fwd[a:b] = np.where(np.isfinite(fw[r, jf]), idx[r, jf], -1)
+        bwd[a:b] = np.where(np.isfinite(bw[r, jb]), idx[r, jb], -1)
     return fwd, bwd
 
 
