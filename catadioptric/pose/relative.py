@@ -30,7 +30,8 @@ import numpy as np
 
 from .._checks import CatadioptricError, as_scalar
 from .bundle import TwoViewFit
-from .central import CrossingFit, _residual_weights, meeting_rays, parallax, translation_direction_from_crossings
+from .central import (CrossingFit, Parallax, _residual_weights, meeting_rays, parallax, rotation_twins,
+                      translation_direction_from_crossings)
 from .epipolar import refine_with_crossings
 from .families import FamilyEstimate, ViewLines, fit_view_families, is_central
 from .rotation import rotation_angle_deg
@@ -41,6 +42,12 @@ from .translation import ray_depths, triangulate_line
 __all__ = ["Candidate", "RelativePose", "relative_pose", "matching_bar", "MATCHING_BARS"]
 
 _FITS = 4.0  # a refinement fits the pixels when its robust cost is at most this per pixel (about 2 sigma)
+#: a central pair shows no parallax when at least this many lines, and this many times the lines a
+#: translation matched, are seen again unchanged under the rotation alone (pose.central.rotation_twins;
+#: on the real static pairs of validate/real 21-41 such lines against 8-15 matched; on a moving
+#: rendered central pair, none)
+_TWINS_MIN = 5
+_TWINS_OVER_MATCHED = 2
 _SAME_DEG = 5.0  # two answers whose rotations are closer than this are one answer (the ambiguities are
 # discrete: half-turns, permutations of the families)
 #: The inlier meeting rays the first stage's best candidate needs before the first stage may tell the sign
@@ -527,11 +534,21 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
     par, t_best = None, best.t
     if central and t_best is not None and isinstance(best.fit, CrossingFit):
         par = parallax(rays, best.R, best.fit)
+        twins = rotation_twins(view_a, view_b, ea, eb, keys, best.R)
         if par is not None and not par.observable:
+            why = (f"the {par.n_rays} meeting points agree with a rotation alone (median {par.median_deg:.3g} deg apart, "
+                   f"chi-square {par.chi2:.1f} on {par.dof} degrees of freedom, p = {par.p_value:.2g})")
+        elif len(twins.pairs) >= max(_TWINS_MIN, _TWINS_OVER_MATCHED * n_matched):
+            why = (f"{len(twins.pairs)} of the {twins.lines_a} lines of A's matched families are seen again unchanged "
+                   f"under the rotation alone (same plane and place), against {n_matched} lines that a translation "
+                   f"matched")
+            par = Parallax(par.chi2 if par else float("nan"), par.dof if par else 0, par.p_value if par else float("nan"),
+                           False, par.n_rays if par else 0, par.median_deg if par else float("nan"))
+        else:
+            why = None
+        if why is not None:
             t_best = np.zeros(3)
-            notes.append(f"no parallax: the {par.n_rays} meeting points agree with a rotation alone (median "
-                         f"{par.median_deg:.3g} deg apart, chi-square {par.chi2:.1f} on {par.dof} degrees of freedom, "
-                         f"p = {par.p_value:.2g}): a camera turned in place, or a baseline too small to see; t is "
+            notes.append(f"no parallax: {why}: a camera turned in place, or a baseline too small to see; t is "
                          f"reported as zero (its direction is not observable)")
     return RelativePose(R=best.R, t=t_best, cov=cov, metric=isinstance(best.fit, TwoViewFit), parallax=par,
                         ambiguous=bool(margin < bar), margin=float(margin), candidates=out, families=keys,

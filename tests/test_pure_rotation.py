@@ -1,0 +1,70 @@
+"""A camera turned in place (a tripod) or not moved at all: the relative pose of a central camera
+gives the rotation and reports the translation as zero and not observable, not a wild direction;
+a camera that moved keeps its translation direction. Synthetic lines of a room seen by a
+calibration's model (Mei's, the real camera of ../shared/real/mei) with the label path's pixels."""
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from catadioptric.linefit.synthetic import segment_pixels
+from catadioptric.models import MeiCamera
+from catadioptric.pose import ViewLines, relative_pose, rotation_angle_deg
+
+K = np.array([[297.558, 0.0, 643.278], [0.0, 297.850, 520.939], [0.0, 0.0, 1.0]])
+CAM = MeiCamera(1280, 1024, 0.9995, K, (-0.0659, 0.00528, 0.00094, -4.9e-05))
+
+
+def _room():
+    """Segments of a 6 x 5 x 3 m room around the camera: three families (x, y, z)."""
+    segs = []
+    for y in (-2.5, -1.2, 0.4, 2.5):
+        for z in (-1.2, 0.3, 1.8):
+            segs.append(("x", [-3.0, y, z], [3.0, y, z]))
+    for x in (-3.0, -1.5, 1.0, 3.0):
+        for z in (-1.2, 0.9, 1.8):
+            segs.append(("y", [x, -2.5, z], [x, 2.5, z]))
+    for x, y in ((-3.0, -2.5), (-3.0, 2.5), (3.0, -2.5), (3.0, 2.5), (-1.5, 2.5), (1.0, -2.5)):
+        segs.append(("z", [x, y, -1.2], [x, y, 1.8]))
+    return segs
+
+
+def _view(R, c, sigma, rng):
+    """The room's segments seen from centre ``c`` (room frame) with camera axes ``R`` (rows:
+    camera axes in the room; ``x_cam = R (x - c)``), pixels with noise ``sigma``."""
+    uv, fam, ids = [], [], []
+    for k, (f, a, b) in enumerate(_room()):
+        a_c, b_c = R @ (np.array(a) - c), R @ (np.array(b) - c)
+        u, _ = segment_pixels(CAM, a_c, b_c, 200, sigma=sigma, rng=rng)
+        if len(u) >= 40:
+            uv.append(u)
+            fam.append(f)
+            ids.append(k)
+    return ViewLines(CAM, uv, fam, ids)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_camera_turned_in_place_reports_no_translation(seed):
+    rng = np.random.default_rng(seed)
+    R_b = Rotation.from_euler("zyx", [12.0, 3.0, -2.0], degrees=True).as_matrix()
+    va = _view(np.eye(3), np.zeros(3), 0.5, rng)
+    vb = _view(R_b, np.zeros(3), 0.5, rng)
+    p = relative_pose(va, vb, max_rotation_deg=60)
+    assert p.model == "central" and not p.ambiguous
+    # the rotation within 5 of its own deviations (0.5 px on a few thousand pixels)
+    assert rotation_angle_deg(p.R @ R_b.T) < 5 * p.rotation_std_deg
+    assert not p.translation_observable
+    assert np.array_equal(p.t, np.zeros(3))
+    assert any(n.startswith("no parallax") for n in p.notes)
+
+
+def test_a_camera_that_moved_keeps_its_translation():
+    rng = np.random.default_rng(3)
+    R_b = Rotation.from_euler("z", 8.0, degrees=True).as_matrix()
+    c_b = np.array([0.8, 0.3, 0.0])
+    va = _view(np.eye(3), np.zeros(3), 0.5, rng)
+    vb = _view(R_b, c_b, 0.5, rng)
+    p = relative_pose(va, vb, max_rotation_deg=60)
+    assert p.translation_observable and p.parallax is not None and p.parallax.observable
+    t_true = -R_b @ c_b  # x_B = R_b (x - c_b) = R_b x_A - R_b c_b
+    t_true /= np.linalg.norm(t_true)
+    assert np.degrees(np.arccos(np.clip(p.t @ t_true, -1, 1))) < 3.0
