@@ -251,6 +251,7 @@ def image_pair_summary(result: ImagePairPose) -> dict:
     return {
         "format": "catadioptric-image-pair-pose/1",
         "R": p.R, "t": p.t, "metric": p.metric, "model": p.model, "cov": p.cov,
+        "translation_observable": p.translation_observable,
         "rotation_std_deg": p.rotation_std_deg, "translation_std": p.translation_std,
         "ambiguous": p.ambiguous, "margin": p.margin, "lines_matched": p.lines_matched, "sigma_px": p.sigma_px,
         "matched_families": fams,
@@ -274,6 +275,8 @@ def image_pair_markdown(summary: dict, command: str) -> str:
               f"- rotation: {rotation_angle_deg(R):.3f} deg turn (std {summary['rotation_std_deg']:.3f} deg)"]
     if summary["t"] is None:
         lines.append("- translation: not estimated")
+    elif not summary.get("translation_observable", True):
+        lines.append("- translation: zero, not observable (no parallax: the notes say why)")
     elif summary["metric"]:
         t = np.asarray(summary["t"], float)
         lines.append(f"- translation (metres, metric): {np.round(t, 3).tolist()} (|t| = {np.linalg.norm(t):.3f} m, "
@@ -329,6 +332,8 @@ def _run(args) -> int:
 
     p = res.pose
     t = "none" if p.t is None else (f"{np.linalg.norm(p.t):.3f} m" if p.metric else "direction only")
+    if not p.translation_observable:
+        t = "zero, not observable (no parallax)"
     print(f"{len(res.family_map)} families matched, {p.lines_matched} lines; turn {rotation_angle_deg(p.R):.3f} deg, "
           f"translation {t}; {'AMBIGUOUS' if p.ambiguous else 'decisive'} (margin {p.margin:.1f}); "
           f"{res.seconds['total']:.1f} s; wrote {os.path.join(args.out, 'pose.json')}, report.md, overlay.png")
