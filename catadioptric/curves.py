@@ -265,7 +265,7 @@ def _chain_single(c, par, uv, r, valid, periodic, reach, start, stop) -> list[Pi
 def pixel_grid_rays(cam, step: int):
     """Reflected rays of every ``step``-th pixel of the image that sees the world, with the
     angle between each ray and its grid neighbours (the angular resolution of the grid there)."""
-    grid = cam.pinhole.pixel_grid(step)
+    grid = (cam.pinhole if hasattr(cam, "pinhole") else cam).pixel_grid(step)
     rays = cam.backproject(grid)
     d = rays.directions
     ang = np.full(d.shape[:2], np.nan)

@@ -166,7 +166,8 @@ def vanishing_curve(cam: CatadioptricCamera, normal, *, max_step_px: float = 1.0
                     max_rounds: int = 60) -> list[VanishingCurve]:
     """The vanishing curve of the plane with ``normal`` (in M): the observable vanishing
     points of every direction perpendicular to it, as polylines whose consecutive
-    vertices are at most ``max_step_px`` apart on the image and within one image size around
+    vertices are at most ``max_step_px`` apart on the image (``cam``: an exact rig, or a camera
+    model of :mod:`catadioptric.models`, whose :meth:`vanishing_curve` calls this) and within one image size around
     it (beyond, where a curve can run toward infinity, the step grows by half the distance).
 
     Directions are swept by angle, ``s(theta) = cos(theta) e1 + sin(theta) e2`` with
@@ -176,6 +177,7 @@ def vanishing_curve(cam: CatadioptricCamera, normal, *, max_step_px: float = 1.0
     are too far apart and where the curve leaves the observable region, down to 1e-9 rad).
     """
     from .curves import sweep_options, trace
+    from .models.base import image_size
 
     m = as_float_array(normal, "normal", 3)
     if m.shape != (3,) or not np.any(m != 0):
@@ -189,7 +191,7 @@ def vanishing_curve(cam: CatadioptricCamera, normal, *, max_step_px: float = 1.0
     dirs = lambda th: np.cos(th)[:, None] * e1 + np.sin(th)[:, None] * e2
 
     def evaluate(_ids, th):
-        vp = vanishing_points(cam, dirs(th))
+        vp = cam.vanishing_points(dirs(th))  # an exact rig's solvers, or a camera model's formula
         return vp.uv, vp.mirror_points, vp.valid
 
     # seeds: directions of the plane seen by every 4th pixel (pieces visible over tiny angles)
@@ -202,5 +204,5 @@ def vanishing_curve(cam: CatadioptricCamera, normal, *, max_step_px: float = 1.0
         th = np.sort(th)[np.linspace(0, len(th) - 1, 512).astype(int)]
     pieces = trace(evaluate, [0.0], [2 * np.pi], periodic=True, max_step_px=max_step_px, n_start=n_start,
                    max_rounds=max_rounds, seeds=(np.zeros(len(th), dtype=np.intp), th),
-                   image=(cam.pinhole.width, cam.pinhole.height))[0]
+                   image=image_size(cam))[0]
     return [VanishingCurve(p.uv, p.mirror_points, dirs(p.params), p.closed) for p in pieces]

@@ -191,3 +191,14 @@ def test_detect_takes_a_calibration_and_a_mask(tmp_path, capsys):
     assert rc == 0
     out = json.loads((tmp_path / "d" / "lines.json").read_text())
     assert out["camera"]["model"] == "mei" and out["lines"] == []
+
+
+def test_vanishing_curves_of_a_model(cam):
+    m = np.array([0.3, -0.2, 0.93])
+    pieces = cam.vanishing_curve(m)
+    assert pieces
+    for p in pieces:
+        d = cam.backproject(p.uv).directions
+        # every vertex is an exact vanishing point of a direction in the plane (rays normal to m)
+        assert np.max(np.abs(d @ (m / np.linalg.norm(m)))) < 1e-12
+        assert np.max(np.linalg.norm(np.diff(p.uv, axis=0), axis=1)) <= 1.0 + 1e-9

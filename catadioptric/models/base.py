@@ -193,6 +193,13 @@ class CentralCamera:
         mp = np.full(uv.shape[:-1] + (3,), np.nan)
         return VanishingPoints(uv, mp, valid, sign, vis, vis & self.in_image(uv))
 
+    def vanishing_curve(self, normal, **kwargs):
+        """The vanishing curve of the plane with ``normal``: a list of polylines
+        (:func:`catadioptric.vanishing.vanishing_curve`)."""
+        from ..vanishing import vanishing_curve
+
+        return vanishing_curve(self, normal, **kwargs)
+
     def directions_from_vanishing_points(self, uv) -> np.ndarray:
         """Unit oriented directions ``(..., 3)`` whose vanishing point is pixel ``uv``: the pixel's ray."""
         r = self.backproject(uv)
