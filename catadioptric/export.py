@@ -76,7 +76,12 @@ def _run(args) -> int:
     from ._io import atomic_write_bytes
     from .cliargs import resolve_rig
 
+    from .detect.image import check_image_size
+
+    if args.width is not None and args.height is not None:
+        check_image_size(args.width, args.height, "--width/--height")
     cam, _ = resolve_rig(args.rig, width=args.width, height=args.height)
+    check_image_size(cam.pinhole.width, cam.pinhole.height, "--width/--height")
     if args.out is not None:
         if not args.out.strip() or os.path.isdir(args.out):
             raise CatadioptricError(f"--out: expected a file path, got {args.out!r}")
@@ -104,7 +109,8 @@ def register(sub) -> None:
     p.add_argument("--format", required=True, choices=list(FORMATS) + list(_ALIASES),
                    help="opencv (FileStorage YAML for cv2.omnidir), kalibr (camchain), colmap (cameras.txt line), json")
     p.add_argument("--out", metavar="FILE", help="write here (default: standard output)")
-    p.add_argument("--width", type=positive_int, help="image width in pixels (default: the rig's)")
+    p.add_argument("--width", type=positive_int, help="image width in pixels (default: the rig's; width x height at "
+                                                      "most 4096x4096 pixels in all, docs/detect.md)")
     p.add_argument("--height", type=positive_int, help="image height in pixels (default: the rig's)")
     p.add_argument("--step", type=positive_int, default=4,
                    help="pixel stride of the fit and of the error figures (default 4)")

@@ -64,7 +64,7 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
     :data:`COVARIANCE_SCALE`, measured on rendered pairs; 1: the fit's own). Raises :class:`CatadioptricError` naming the cause when a view has fewer than two families.
     """
     from .detect import detect_lines
-    from .detect.image import to_channels
+    from .detect.image import check_image_size, to_channels
 
     cam_b = cam_a if cam_b is None else cam_b
     if not (isinstance(min_pixels, (int, np.integer)) and min_pixels >= 2):
@@ -72,6 +72,9 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
     opts = dict(detect_options or {})
     grey = []
     for name, img in (("A", image_a), ("B", image_b)):
+        shape = np.shape(img)
+        if len(shape) >= 2:
+            check_image_size(shape[1], shape[0], f"image_{name.lower()}")
         try:
             grey.append(to_channels(img).shape[2] == 1)
         except CatadioptricError as exc:
@@ -304,6 +307,11 @@ def _run(args) -> int:
 
     check_out_dir(args.out)
     images = [read_image(p) for p in (args.image_a, args.image_b)]
+    from .detect.image import check_image_size
+
+    for flag, img in zip(("IMAGE_A", "IMAGE_B"), images):
+        if np.ndim(img) >= 2:
+            check_image_size(img.shape[1], img.shape[0], flag)
 
     def camera(value, flag, img, which):
         if os.path.isdir(value):

@@ -18,12 +18,30 @@ import numpy as np
 
 from .._checks import CatadioptricError
 
-__all__ = ["to_channels", "luminance", "to_grey", "noise_level", "denoise", "DENOISE_MODES"]
+__all__ = ["to_channels", "luminance", "to_grey", "noise_level", "denoise", "DENOISE_MODES", "MAX_PIXELS",
+           "check_image_size"]
+
+#: The largest image (pixels, width x height) that ``detect``, ``relative-pose`` and ``export
+#: --width/--height`` take: 4096 x 4096 (16.8 megapixels), the renderer's own limit. Detection peaks
+#: at about 0.1 GB plus 0.36 GB per megapixel (1.55 GB at 2000x2000, of which 1.2 GB is the mirror
+#: region's pixel rays), so an image at the limit takes about 6 GB, and the two images of
+#: ``relative-pose`` (detected one after the other) about 7 GB: well inside the 24 GB of the
+#: machine the project is tested on, with room for another job. docs/detect.md, "Image size".
+MAX_PIXELS = 4096 * 4096
 
 DENOISE_MODES = ("auto", "nlmeans", "bilateral", "none")
 
 # Immerkaer's operator: the difference of two Laplacians, blind to planes and to linear shading
 _NOISE_KERNEL = np.array([[1.0, -2.0, 1.0], [-2.0, 4.0, -2.0], [1.0, -2.0, 1.0]])
+
+
+def check_image_size(width, height, what: str = "image") -> None:
+    """Raise a :class:`CatadioptricError` (one line, addressed to ``what``: a flag or an argument's
+    name) when a ``width`` x ``height`` image has more than :data:`MAX_PIXELS` pixels."""
+    w, h = int(width), int(height)
+    if w * h > MAX_PIXELS:
+        raise CatadioptricError(f"{what}: expected at most {MAX_PIXELS / 1e6:.1f} megapixels ({MAX_PIXELS} pixels, "
+                                f"e.g. 4096x4096: the memory limit of docs/detect.md, \"Image size\"), got {w}x{h}")
 
 
 def to_channels(image) -> np.ndarray:
