@@ -130,6 +130,83 @@ def _paired(draws) -> dict:
     return out
 
 
+#: the bins of the table by baseline and turn (metres, degrees; the last bin of each is closed)
+BASELINE_BINS_M = (0.0, 8.0, 25.0, float("inf"))
+TURN_BINS_DEG = (0.0, 30.0, 90.0, 150.0, 180.0)
+
+
+def _bin(x, edges):
+    for k in range(len(edges) - 1):
+        if edges[k] <= x < edges[k + 1] or (k == len(edges) - 2 and x <= edges[-1]):
+            return k
+    return len(edges) - 2
+
+
+def _bin_name(edges, k, unit):
+    hi = edges[k + 1]
+    return f"{edges[k]:g}+ {unit}" if not np.isfinite(hi) else f"{edges[k]:g}-{hi:g} {unit}"
+
+
+def by_baseline_and_turn(results: list) -> dict:
+    """The label path's draws binned by the pair's baseline (:data:`BASELINE_BINS_M`) and the turn
+    between its views (the angle of ``R_gt``, :data:`TURN_BINS_DEG`), every configuration together,
+    per model (``exact``, ``central``): ``{model: {"baseline bin|turn bin": {"pairs", "draws",
+    "failed", "ambiguous", "over_10deg_unflagged", "rotation_deg"}}}`` (the rotation error of the
+    answered draws, the ambiguous ones left out)."""
+    from ..pose import rotation_angle_deg
+
+    out = {}
+    for key in ("exact", "central"):
+        cells: dict = {}
+        for r in results:
+            turn = rotation_angle_deg(np.asarray(r["R_gt"], float))
+            name = (_bin_name(BASELINE_BINS_M, _bin(r["baseline_m"], BASELINE_BINS_M), "m") + "|"
+                    + _bin_name(TURN_BINS_DEG, _bin(turn, TURN_BINS_DEG), "deg"))
+            rows, ok = _model_rows(r["draws"], key)
+            rows = [x for x in rows if x]
+            if not rows:
+                continue
+            c = cells.setdefault(name, {"pairs": 0, "draws": 0, "failed": 0, "ambiguous": 0,
+                                        "over_10deg_unflagged": 0, "_err": []})
+            c["pairs"] += 1
+            c["draws"] += len(rows)
+            c["failed"] += len(rows) - len(ok)
+            c["ambiguous"] += sum(bool(x["ambiguous"]) for x in ok)
+            clear = [x for x in ok if not x["ambiguous"]]
+            c["over_10deg_unflagged"] += sum(x["rotation_error_deg"] > 10 for x in clear)
+            c["_err"] += [x["rotation_error_deg"] for x in clear]
+        for c in cells.values():
+            c["rotation_deg"] = _q(c.pop("_err"))
+        out[key] = cells
+    return out
+
+
+def _baseline_turn_markdown(table: dict) -> list:
+    L = ["## By baseline and turn", "",
+         "Every configuration's draws together, binned by the pair's baseline (rows) and the turn between its views "
+         "(columns). Per cell: draws, how many ambiguous, how many answered more than 10 degrees off without a flag, "
+         "and the median rotation error of the answered draws (degrees).", ""]
+    for key in ("exact", "central"):
+        cells = table.get(key, {})
+        rows = []
+        for i in range(len(BASELINE_BINS_M) - 1):
+            b = _bin_name(BASELINE_BINS_M, i, "m")
+            row = [b]
+            for j in range(len(TURN_BINS_DEG) - 1):
+                c = cells.get(b + "|" + _bin_name(TURN_BINS_DEG, j, "deg"))
+                if not c:
+                    row.append("-")
+                    continue
+                med = c["rotation_deg"]["median"]
+                row.append(f"{c['draws']} draws ({c['pairs']} pairs): ambiguous {c['ambiguous']}, wrong "
+                           f"{c['over_10deg_unflagged']}" + (f", {med:.3g} deg" if med is not None else "")
+                           + (f", failed {c['failed']}" if c["failed"] else ""))
+            rows.append(row)
+        L += [f"*{key}*", "", md_table(["baseline"] + [_bin_name(TURN_BINS_DEG, j, "deg")
+                                                       for j in range(len(TURN_BINS_DEG) - 1)], rows), ""]
+    return L
+
+
 def _fmt(q, digits=3):
     if not q or q.get("median") is None:
         return "-"
@@ -260,6 +337,7 @@ def benchmark_markdown(spec: dict, agg: dict, results: list, command: str, timin
               f"The paper reports a Frobenius error of {PAPER_FROBENIUS_2PX} for its one POV-Ray pair (non-central "
               "ellipsoidal rig, 2 px, ends of the families matched by hand). Here, at 2 px:", "",
               md_table(["configuration", "exact (Frobenius)", "central (Frobenius)"], rows), ""]
+    L += _baseline_turn_markdown(by_baseline_and_turn(results))
     issues = _issues(results)
     L += ["## Failed, ambiguous and wrong draws", ""]
     L += [md_table(["configuration", "pair", "renderer", "noise (px)", "draw", "model", "what", "detail"], issues)
@@ -543,6 +621,6 @@ def write_benchmark_report(spec: dict, results: list, out: str, *, command: str,
     # on one line: every pair's draws of the full benchmark take 5.3 MB indented, 4.1 MB without
     atomic_write_json(os.path.join(out, "report.json"),
                       jsonable({"spec": spec, "command": command, "timing": timing, "aggregate": agg,
-                                "pairs": results, "images_aggregate": agg_im, "images_pairs": image_results}),
+                                "by_baseline_and_turn": by_baseline_and_turn(results), "pairs": results, "images_aggregate": agg_im, "images_pairs": image_results}),
                       indent=None)
     return agg
