@@ -347,3 +347,44 @@ def test_bad_input_is_named():
     # an empty image gives no lines, not an error
     det = detect_lines(img, cam)
     assert len(det) == 0 and det.families == [] and len(det.to_view_lines().uv) == 0
+
+
+# --------------------------------------------------------------------------- memory (issue 39, item 3)
+def test_detection_memory_does_not_grow_with_chains_times_centres(synthetic, monkeypatch):
+    """A chain keeps a tangent of its own, not a row of an (N, 2) array of every centre (which kept
+    the whole array alive per chain: chains x centres, 11 GB for a 2000x2000 image); the neighbour
+    searches of the edge pairing and of the chain linking run in blocks of points, and each point's
+    choice is its own: blocks of any size give the same lines."""
+    import catadioptric.detect.centres as centres_mod
+    import catadioptric.detect.chains as chains_mod
+    from catadioptric.detect.chains import join_chains, link_chains
+
+    cam, img, _, _, det = synthetic
+    edges = subpixel_edges(img[..., 0].astype(float), mirror_region(cam, 3), sigma=1.0)
+    centres, _ = pair_edges(edges)
+    chains = link_chains(centres)
+    assert chains and all(c["tangent"].base is None and c["tangent"].shape == (2,) for c in chains)
+    assert all(c["tangent"].base is None for c in join_chains(chains))
+    monkeypatch.setattr(centres_mod, "_BLOCK", 97)
+    monkeypatch.setattr(chains_mod, "_BLOCK", 101)
+    small = detect_lines(img, cam)
+    assert len(small) == len(det) and len(small.chains) == len(det.chains)
+    assert all(np.array_equal(a, b) for a, b in zip(small.uv, det.uv))
+    assert all(np.array_equal(a, b) for a, b in zip(small.chains, det.chains))
+    assert np.array_equal(small.family, det.family) and np.array_equal(small.normal, det.normal)
+
+
+def test_the_image_size_limit_is_one_line():
+    """MAX_PIXELS (docs/detect.md, "Image size"): 4096x4096 passes, a larger image is refused in
+    one line naming what was given."""
+    from catadioptric.detect.image import MAX_PIXELS, check_image_size
+
+    assert MAX_PIXELS == 4096 * 4096
+    check_image_size(4096, 4096, "IMAGE")
+    check_image_size(16384, 1024, "IMAGE")
+    with pytest.raises(CatadioptricError, match=r"^IMAGE: expected at most 16\.8 megapixels \(16777216 pixels, "
+                                                r"e\.g\. 4096x4096: the memory limit of docs/detect\.md, "
+                                                r"\"Image size\"\), got 20000x20000$"):
+        check_image_size(20000, 20000, "IMAGE")
+    with pytest.raises(CatadioptricError, match=r"got 4097x4096$"):
+        check_image_size(4097, 4096, "IMAGE")
