@@ -42,12 +42,14 @@ from .translation import ray_depths, triangulate_line
 __all__ = ["Candidate", "RelativePose", "relative_pose", "matching_bar", "MATCHING_BARS"]
 
 _FITS = 4.0  # a refinement fits the pixels when its robust cost is at most this per pixel (about 2 sigma)
-#: a central pair shows no parallax when at least this many lines, and this many times the lines a
-#: translation matched, are seen again unchanged under the rotation alone (pose.central.rotation_twins;
-#: on the real static pairs of validate/real 21-41 such lines against 8-15 matched; on a moving
-#: rendered central pair, none)
+#: a central pair shows no parallax when at least this many lines, and at least as many as the lines a
+#: translation matched (this many times), are seen again unchanged under the rotation alone
+#: (pose.central.rotation_twins): the rotation alone then explains more of the scene than a translation
+#: does. On the real static pairs of validate/real, 21-41 such lines against 8-24 matched (whose
+#: meeting points, under a translation hypothesis, pair neighbouring parallel lines: none of them agree
+#: with no motion); on a moving rendered central pair, none
 _TWINS_MIN = 5
-_TWINS_OVER_MATCHED = 2
+_TWINS_OVER_MATCHED = 1
 _SAME_DEG = 5.0  # two answers whose rotations are closer than this are one answer (the ambiguities are
 # discrete: half-turns, permutations of the families)
 #: The inlier meeting rays the first stage's best candidate needs before the first stage may tell the sign
