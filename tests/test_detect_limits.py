@@ -51,8 +51,6 @@ def test_relative_pose_refuses_an_image_beyond_the_limit(capsys, tmp_path, monke
     assert not (tmp_path / "o").exists()
 
 
-@pytest.mark.xfail(strict=False, reason="the check is to be called in detect/cli.py after read_image "
-                                        "(check_image_size(img.shape[1], img.shape[0], 'IMAGE'))")
 def test_detect_refuses_an_image_beyond_the_limit(capsys, tmp_path, monkeypatch):
     big = tmp_path / "big.npy"
     np.save(big, np.zeros((90, 120), np.uint8))

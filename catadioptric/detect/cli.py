@@ -100,6 +100,7 @@ def _options(args) -> dict:
 def _run(args) -> int:
     from .._io import atomic_write_json
     from .detector import check_options, detect_lines
+    from .image import check_image_size
     from .overlay import overlay_image
     from .report import evaluate_dataset, markdown_table, write_png
 
@@ -133,6 +134,7 @@ def _run(args) -> int:
         raise CatadioptricError("--rig: expected the rig of the image (a rig name, a rig spec file, or a dataset "
                                 "(view) folder whose stored camera took it)")
     h, w = image.shape[:2]
+    check_image_size(w, h, "IMAGE")
     if os.path.isdir(args.rig):
         cam = camera_from_folder(args.rig)
     else:

@@ -13,7 +13,7 @@ from .curves import line_covariance, merge_pieces, order_along, split_chain
 from .edges import subpixel_edges
 from .families import group_families
 from .grow import grow_lines
-from .image import DENOISE_MODES, denoise, luminance, noise_level, to_channels
+from .image import DENOISE_MODES, check_image_size, denoise, luminance, noise_level, to_channels
 from ..linefit.planes import pixel_rays_with_jacobian
 from .region import ANNULUS_MARGIN_PX, check_mask, mirror_region, scene_annulus
 from .result import DetectedLines
@@ -105,6 +105,7 @@ def detect_lines(image, cam, *, mask=None, **options) -> DetectedLines:
     if not o["colour"]:
         chan = luminance(chan)[..., None]
     W, H = image_size(cam)
+    check_image_size(chan.shape[1], chan.shape[0], "image")
     if chan.shape[:2] != (H, W):
         raise CatadioptricError(f"image: expected {W}x{H} pixels (the camera's image size), got "
                                 f"{chan.shape[1]}x{chan.shape[0]}")

@@ -28,31 +28,42 @@ __all__ = ["mirror_region", "scene_annulus", "Annulus", "check_mask", "ANNULUS_M
 #: the gradients' reach)
 ANNULUS_MARGIN_PX = 8.0
 
-_MODEL_REGIONS: dict = {}
+_REGIONS: dict = {}
+#: rows of pixels back-projected at once for an exact rig's region (bounded memory: the rays of a
+#: block are dropped once their ``valid`` is kept)
+REGION_BLOCK_PIXELS = 1 << 18
+
+
+def _rig_region(cam) -> np.ndarray:
+    """``cam.backproject(pixel centre).valid`` for every pixel of an exact rig, a block of rows at a
+    time (each pixel's ray does not depend on the batch it is in: the same mask as at once)."""
+    W, H = cam.pinhole.width, cam.pinhole.height
+    grid = cam.pinhole.pixel_grid()
+    rows = max(1, REGION_BLOCK_PIXELS // W)
+    out = np.zeros((H, W), bool)
+    for r0 in range(0, H, rows):
+        out[r0:r0 + rows] = np.asarray(cam.backproject(grid[r0:r0 + rows]).valid, bool)
+    return out
 
 
 def mirror_region(cam, erode_px: int = 3) -> np.ndarray:
     """Boolean ``(H, W)`` mask of the pixels of ``cam`` whose centre sees the world, eroded by
-    ``erode_px`` pixels (a disc). Exact rigs: through the mirror, from
-    :func:`catadioptric.render.tracer.pixel_rays` (computed once per rig and kept); camera models:
-    :meth:`~catadioptric.models.CentralCamera.region` (kept for the last two models)."""
+    ``erode_px`` pixels (a disc). Exact rigs: through the mirror (``cam.backproject(uv).valid``,
+    a block of rows at a time); camera models: :meth:`~catadioptric.models.CentralCamera.region`.
+    The masks of the last two cameras are kept."""
     import cv2
 
     from ..models.base import CentralCamera
 
     erode_px = as_count(erode_px, "erode_px", minimum=0)
-    if isinstance(cam, CentralCamera):
-        key = json.dumps(cam.to_dict(), sort_keys=True)
-        valid = _MODEL_REGIONS.get(key)
-        if valid is None:
-            valid = cam.region()
-            if len(_MODEL_REGIONS) >= 2:
-                _MODEL_REGIONS.pop(next(iter(_MODEL_REGIONS)))
-            _MODEL_REGIONS[key] = valid
-    else:
-        from ..render.tracer import pixel_rays
-
-        valid = np.asarray(pixel_rays(cam).valid, bool)
+    key = (type(cam).__name__, json.dumps(cam.to_dict(), sort_keys=True))
+    valid = _REGIONS.get(key)
+    if valid is None:
+        valid = cam.region() if isinstance(cam, CentralCamera) else _rig_region(cam)
+        valid.setflags(write=False)
+        if len(_REGIONS) >= 2:
+            _REGIONS.pop(next(iter(_REGIONS)))
+        _REGIONS[key] = valid
     if erode_px == 0:
         return valid.copy()
     k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * erode_px + 1, 2 * erode_px + 1))
