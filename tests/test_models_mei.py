@@ -202,3 +202,15 @@ def test_vanishing_curves_of_a_model(cam):
         # every vertex is an exact vanishing point of a direction in the plane (rays normal to m)
         assert np.max(np.abs(d @ (m / np.linalg.norm(m)))) < 1e-12
         assert np.max(np.linalg.norm(np.diff(p.uv, axis=0), axis=1)) <= 1.0 + 1e-9
+
+
+def test_the_unified_fit_of_a_calibration(cam):
+    # a model with no distortion is the unified model itself: the fit recovers it to rounding
+    pure = MeiCamera(cam.width, cam.height, XI, K)
+    from catadioptric.unified import fit_unified
+
+    f = fit_unified(pure, step=32)
+    assert f.rms_px < 1e-9 and abs(f.camera.xi - XI) < 1e-9
+    # with its lens distortion it is not: the fit says how far (pixels), finite and positive
+    g = fit_unified(cam, step=32)
+    assert np.isfinite(g.rms_px) and g.rms_px > 1e-3

@@ -13,6 +13,7 @@ import numpy as np
 
 from .._checks import CatadioptricError, as_float_array
 from ..cameras import CatadioptricCamera
+from ..models.base import image_size
 from ..solvers.reflection import reflect
 from .model import DEFAULT_DEPTHS, UnifiedCamera
 
@@ -227,10 +228,22 @@ def _linear_K(xi, R, c, Rt, X, w, uv):
     return np.array([[a[0], a[1], a[2]], [0.0, b[0], b[1]], [0.0, 0.0, 1.0]])
 
 
+def _is_model(cam) -> bool:
+    from ..models.base import CentralCamera
+
+    return isinstance(cam, CentralCamera)
+
+
 def _samples(cam: CatadioptricCamera, step: int, depths):
-    uv = cam.pinhole.pixel_grid(step).reshape(-1, 2)
+    if _is_model(cam):  # a calibration's model: the pixels of its region (its formula's own range)
+        uv = cam.pixel_grid(step)
+        ok = cam.region()[::step, ::step].reshape(-1)
+        uv = uv.reshape(-1, 2)
+    else:
+        uv = cam.pinhole.pixel_grid(step).reshape(-1, 2)
+        ok = True
     rays = cam.backproject(uv)
-    ok = rays.valid
+    ok = rays.valid & ok
     uv, o, d = uv[ok], rays.origins[ok], rays.directions[ok]
     Xs, ws, uvs, tags = [], [], [], []
     for t in depths:
@@ -254,7 +267,7 @@ def _generic_initial(cam: CatadioptricCamera, X, w, uv, origins, dirs) -> Unifie
     A = P.sum(0)
     b = np.einsum("nij,nj->i", P, origins)
     c = np.linalg.solve(A, b)
-    z = cam.center - c
+    z = np.asarray(cam.axis, float) if _is_model(cam) else cam.center - c
     R = _frame_with_z(z / np.linalg.norm(z))
     best = None
     for xi in np.linspace(0.0, 1.5, 16):
@@ -271,10 +284,12 @@ def _generic_initial(cam: CatadioptricCamera, X, w, uv, origins, dirs) -> Unifie
                 K[2, 2] = 1.0
             best = (cost, xi, K, Rk)
     _, xi, K, R = best
-    return UnifiedCamera(xi, K, R, c, np.eye(3), cam.pinhole.width, cam.pinhole.height)
+    return UnifiedCamera(xi, K, R, c, np.eye(3), *image_size(cam))
 
 
 def _nearest_central_initial(cam: CatadioptricCamera) -> Optional[UnifiedCamera]:
+    if _is_model(cam):
+        return None
     m = cam.mirror
     if m.kind not in ("ellipsoid", "hyperboloid") or len(m.foci) != 2:
         return None
@@ -288,7 +303,10 @@ def _nearest_central_initial(cam: CatadioptricCamera) -> Optional[UnifiedCamera]
 
 def fit_unified(cam: CatadioptricCamera, *, step: int = 8, depths=DEFAULT_DEPTHS, tilt: bool = False,
                 initial: Optional[UnifiedCamera] = None, max_nfev: int = 400) -> UnifiedFit:
-    """The best central (unified-model) approximation of the rig ``cam``, by least squares.
+    """The best central (unified-model) approximation of the rig ``cam``, by least squares. ``cam``
+    may also be a calibration's camera model (:mod:`catadioptric.models`: how far OCamCalib's or
+    Kalibr's model of a camera is from Mei's; its viewpoint is the origin, its region's pixels are
+    sampled).
 
     Samples: the centres of every ``step``-th pixel (rows and columns) whose exact back-projected
     ray is valid; along each exact reflected ray, the points at ``depths`` metres from its mirror
@@ -306,8 +324,9 @@ def fit_unified(cam: CatadioptricCamera, *, step: int = 8, depths=DEFAULT_DEPTHS
     from scipy.optimize import least_squares
     from scipy.spatial.transform import Rotation
 
-    if not isinstance(cam, CatadioptricCamera):
-        raise CatadioptricError(f"cam: expected a CatadioptricCamera, got {type(cam).__name__}")
+    if not (isinstance(cam, CatadioptricCamera) or _is_model(cam)):
+        raise CatadioptricError(f"cam: expected a CatadioptricCamera or a camera model of catadioptric.models, got "
+                                f"{type(cam).__name__}")
     if not (isinstance(step, (int, np.integer)) and step >= 1):
         raise CatadioptricError(f"step: expected a positive integer, got {step!r}")
     dep = as_float_array(depths, "depths", finite=False).reshape(-1)
@@ -326,7 +345,7 @@ def fit_unified(cam: CatadioptricCamera, *, step: int = 8, depths=DEFAULT_DEPTHS
     R0, c0, xi0 = init.R_sphere_from_mirror, init.center, init.xi
     Rt0 = init.R_tilt if tilt else np.eye(3)
     K0 = init.K if (tilt or init.is_pure) else _linear_K(xi0, R0, c0, Rt0, X, w, uv)
-    scale = cam.mirror.scale
+    scale = 1.0 if _is_model(cam) else cam.mirror.scale
 
     def unpack(x):
         xi = x[0]
@@ -359,7 +378,7 @@ def fit_unified(cam: CatadioptricCamera, *, step: int = 8, depths=DEFAULT_DEPTHS
         K[2, 2] = 1.0
         R = Rz @ R
         Rt = Rz @ Rt @ Rz
-    fitted = UnifiedCamera(xi, K, R, c, Rt, cam.pinhole.width, cam.pinhole.height)
+    fitted = UnifiedCamera(xi, K, R, c, Rt, *image_size(cam))
     pr, den = _project_homogeneous(xi, K, R, c, Rt, X, w)
     err = np.linalg.norm(pr - uv, axis=-1)
     err = np.where(np.isfinite(err) & (den > 0), err, np.inf)
