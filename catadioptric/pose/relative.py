@@ -52,13 +52,16 @@ _TWINS_MIN = 5
 _TWINS_OVER_MATCHED = 1
 _SAME_DEG = 5.0  # two answers whose rotations are closer than this are one answer (the ambiguities are
 # discrete: half-turns, permutations of the families)
-#: The inlier meeting rays the first stage's best candidate needs before the first stage may tell the sign
-#: candidates apart (leave one unrefined, or decide a central answer by where lines meet): each meeting
-#: ray adds at most 9 chi-square units to a candidate's score, and with few of them a wrong candidate
-#: finds more by chance than the right one finds by meeting (docs/relative_pose.md, "The verdict at
-#: wide baselines": a wide pair with 12 meeting rays gave a half-turn 7 inliers, the right rotation 4-5,
-#: and the half-turn was answered, margin 26.6; on the benchmark's pairs the best has 40 or more).
-MIN_MEETINGS = 20
+#: The meeting rays (pairs of matched lines of different families whose planes meet on the seen half of
+#: both, :func:`~catadioptric.pose.central.meeting_rays`) the first stage needs before it may tell the
+#: sign candidates apart (leave one unrefined, or decide a central answer by where lines meet): each ray
+#: adds at most 9 chi-square units to a candidate's score, and with few of them a wrong candidate finds
+#: more inliers than the right one (docs/relative_pose.md, "The verdict at wide baselines": a wide pair
+#: with 12 meeting rays gave a half-turn 7 inliers, the right rotation 4-5, and the half-turn was
+#: answered, margin 26.6). A count of the data, not of a candidate's inliers, which exact pixels make
+#: few (17-33 at 0 px on the committed benchmark's pairs, 60-196 at 2 px): its pairs have 72 or more
+#: rays at any noise, the wide pairs' first stage was unreliable at 6-27, reliable from 39.
+MIN_MEETINGS = 30
 #: Then the refinement's margin too is weak evidence: lines seen in both views of a (near-)central rig
 #: meet in any rotation's planes, and the half-turns that fit the directions differ in little but the
 #: nuisance (each line's distance, where the refinement stops along the flat scale), whose chance gap
@@ -126,8 +129,8 @@ class RelativePose:
     sigma_px: float
     estimates: tuple = field(repr=False, default=())
     notes: list = field(default_factory=list)
-    #: the inlier meeting rays of the first stage's best candidate (``MIN_MEETINGS``; None without labels)
-    meeting_inliers: int | None = None
+    #: the meeting rays the first stage scored the candidates on (``MIN_MEETINGS``; None without labels)
+    meeting_rays: int | None = None
     #: the margin the answer needed to be decisive (``decisive``, more when the first stage is weak)
     bar: float | None = None
     parallax: object = None
@@ -446,9 +449,9 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
         # (the truncated cost's ceiling, 9 each), not as if they all fitted perfectly (0)
         stage.append((c.cost + (cr.cost if cr is not None else 0.0 if rays is None else 9.0 * len(rays.xa)), c, cr))
     stage.sort(key=lambda x: x[0])
-    # how much the first stage knows: with few inlier meeting rays its ranking of the sign candidates is
-    # chance (MIN_MEETINGS), and only the directions' part of its cost is evidence
-    n_meet = 0 if stage[0][2] is None else int(stage[0][2].n_inliers)
+    # how much the first stage knows: with few meeting rays its ranking of the sign candidates is no
+    # evidence (MIN_MEETINGS), only the directions' part of its cost is
+    n_meet = 0 if rays is None else len(rays.xa)
     weak = n_meet < MIN_MEETINGS
     out = []
     n_matched = rays.n_lines if rays is not None else 0
@@ -472,10 +475,10 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
     if weak and len(out) > 1:
         margin = _direction_margin(out)
         if not central:
-            notes.append(f"the first stage rests on {n_meet} inlier meeting rays (fewer than {MIN_MEETINGS}): every "
+            notes.append(f"the first stage rests on {n_meet} meeting rays (fewer than {MIN_MEETINGS}): every "
                          f"sign candidate refined on the pixels, none dismissed by where lines meet")
         else:
-            notes.append(f"the answer rests on {n_meet} inlier meeting rays (fewer than {MIN_MEETINGS}): its margin is "
+            notes.append(f"the answer rests on {n_meet} meeting rays (fewer than {MIN_MEETINGS}): its margin is "
                          f"the directions' alone ({margin:.1f}), where lines meet does not tell the candidates apart")
     if not central:
         # stage 2: the metric refinement on the pixels of both views. The best candidate of stage 1 and
@@ -555,7 +558,7 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
     return RelativePose(R=best.R, t=t_best, cov=cov, metric=isinstance(best.fit, TwoViewFit), parallax=par,
                         ambiguous=bool(margin < bar), margin=float(margin), candidates=out, families=keys,
                         lines_matched=n_matched, model="central" if central else "non-central", sigma_px=float(sigma),
-                        estimates=(ea, eb), notes=notes, meeting_inliers=n_meet, bar=float(bar))
+                        estimates=(ea, eb), notes=notes, meeting_rays=n_meet, bar=float(bar))
 
 
 def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families, max_rotation_deg,

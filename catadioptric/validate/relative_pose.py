@@ -77,7 +77,7 @@ def _record(res, R_gt, t_gt, centre_a, centre_b, seconds) -> dict:
            "rotation_std_deg": res.rotation_std_deg, "translation_std": res.translation_std,
            "translation_error_m": None, "translation_direction_error_deg": None,
            "families_used": len(res.families), "lines_used": int(res.lines_matched), "sigma_px": res.sigma_px,
-           "meeting_inliers": res.meeting_inliers, "bar": res.bar,
+           "meeting_rays": res.meeting_rays, "bar": res.bar,
            "candidates_count": len(res.candidates), "seconds": seconds, "notes": res.notes}
     fit = res.candidates[0].fit if res.candidates else None
     if res.metric and hasattr(fit, "scale_held"):  # the refinement's scale: held far, or fixed by the pixels
@@ -90,7 +90,7 @@ def _record(res, R_gt, t_gt, centre_a, centre_b, seconds) -> dict:
             out["translation_direction_error_deg"] = _angle_deg(res.t, R_gt @ centre_a + t_gt - centre_b)
     # every candidate also where the first stage was weak (few meeting rays): the wide pairs' calibration
     # of the bar reads the rivals' margins there (docs/relative_pose.md, "The verdict at wide baselines")
-    weak = res.meeting_inliers is not None and res.meeting_inliers < MIN_MEETINGS
+    weak = res.meeting_rays is not None and res.meeting_rays < MIN_MEETINGS
     if res.ambiguous or weak:
         out["candidates"] = [c.summary() | {"rotation_error_deg": _rotation_error_deg(c.R, R_gt)}
                              for c in res.candidates]
