@@ -326,7 +326,7 @@ def test_cli_errors_are_one_line(renders, tmp_path, capsys, argv, message):
 def test_bad_input_is_named():
     cam = load_rig("sphere", width=64, height=48)
     img = np.zeros((48, 64, 3), np.uint8)
-    with pytest.raises(CatadioptricError, match=r"image: expected 64x48 pixels \(the rig's image size\), got 32x48"):
+    with pytest.raises(CatadioptricError, match=r"image: expected 64x48 pixels \(the camera's image size\), got 32x48"):
         detect_lines(img[:, :32], cam)
     with pytest.raises(CatadioptricError, match="image: expected uint8, uint16 or float pixels, got dtype bool"):
         detect_lines(img.astype(bool), cam)
