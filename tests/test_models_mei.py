@@ -214,3 +214,14 @@ def test_the_unified_fit_of_a_calibration(cam):
     # with its lens distortion it is not: the fit says how far (pixels), finite and positive
     g = fit_unified(cam, step=32)
     assert np.isfinite(g.rms_px) and g.rms_px > 1e-3
+
+
+def test_a_partial_camchain_is_named_as_such(tmp_path, capsys):
+    p = tmp_path / "camchain.yaml"
+    p.write_text("cam0:\n  camera_model: omni\n  distortion_model: radtan\n  distortion_coeffs: [0, 0, 0, 0]\n"
+                 "  resolution: [160, 120]\n")
+    img = tmp_path / "img.png"
+    cv2.imwrite(str(img), np.zeros((120, 160), np.uint8))
+    rc = main(["detect", str(img), "--rig", str(p), "--out", str(tmp_path / "d")])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and "cam0.intrinsics: missing" in err, err

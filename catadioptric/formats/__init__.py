@@ -33,8 +33,8 @@ def calibration_format(path) -> str | None:
         return "opencv"
     if "camera_matrix" in text and "xi" in text and "opencv-matrix" in text:
         return "opencv"
-    if "camera_model" in text and "intrinsics" in text:
-        return "kalibr"
+    if "camera_model" in text or ("intrinsics" in text and "distortion_coeffs" in text):
+        return "kalibr"  # a partial camchain too: its reader names the missing key
     if "cam2world" in low or "world2cam" in low or "polynomial coefficients for the direct mapping" in low:
         return "ocamcalib"
     return None
