@@ -194,7 +194,7 @@ def run_real(data: str, out: str, *, max_rotation_deg: float | None = None, prog
     absolute = _absolute(images, masks, views, cam, out, say)
     # 5. the OCamCalib room
     room = _room(os.path.join(data, "ocamcalib"), out, say)
-    return {"format": "catadioptric-real-report/1", "data": os.path.abspath(data), "camera": cam.to_dict(),
+    return {"format": "catadioptric-real-report/1", "data": data, "camera": cam.to_dict(),
             "max_rotation_deg": max_rotation_deg, "board_axes": axes, "static_pairs": static, "board_pairs": board,
             "absolute_pose": absolute, "ocamcalib_room": room,
             "detections": {n: {"lines": len(d), "families": len(d.families), "annulus": list(d.annulus or []),
