@@ -59,8 +59,9 @@ _SAME_DEG = 5.0  # two answers whose rotations are closer than this are one answ
 #: more inliers than the right one (docs/relative_pose.md, "The verdict at wide baselines": a wide pair
 #: with 12 meeting rays gave a half-turn 7 inliers, the right rotation 4-5, and the half-turn was
 #: answered, margin 26.6). A count of the data, not of a candidate's inliers, which exact pixels make
-#: few (17-33 at 0 px on the committed benchmark's pairs, 60-196 at 2 px): its pairs have 72 or more
-#: rays at any noise, the wide pairs' first stage was unreliable at 6-27, reliable from 39.
+#: few (17-33 at 0 px on the committed benchmark's pairs, 60-196 at 2 px): its pairs have 70 or more
+#: rays at any noise (10 checked, the fewest lines among them); the first stage put a half-turn first
+#: at 12 rays, and the wide pairs of 39 or more were all answered right through it.
 MIN_MEETINGS = 30
 #: Then the refinement's margin too is weak evidence: lines seen in both views of a (near-)central rig
 #: meet in any rotation's planes, and the half-turns that fit the directions differ in little but the
