@@ -70,7 +70,7 @@ def _right_or_ambiguous(res, R_gt):
 
 
 def test_a_wide_pair_is_never_a_decisive_half_turn():
-    """The non-central rig: before the fix the half-turn about the vertical won this pair by 189
+    """The non-central rig: before the fix a half-turn (179.5 degrees off) won this pair by 189
     chi-square units on the pixels (179.5 degrees off, decisive). The first stage rests on fewer than
     MIN_MEETINGS meeting rays, so every sign candidate is refined, and the margin must clear the bar
     of a weak first stage (WEAK_BAR_PER_PIXEL per pixel fitted)."""
