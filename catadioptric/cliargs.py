@@ -143,6 +143,17 @@ def check_out_dir(value: str, flag: str = "--out") -> str:
     if not os.access(probe, os.W_OK | os.X_OK):
         what = "folder" if probe == path else f"folder {probe!r} that would hold it"
         raise CatadioptricError(f"{flag}: expected a writable folder, got {value!r} (cannot write in the {what})")
+    if probe != path:
+        # make it and take it away again: a folder the system refuses (under /proc as root, a name over
+        # 255 characters) is an error now, not a traceback after the work
+        try:
+            os.makedirs(path)
+        except OSError as exc:
+            raise CatadioptricError(f"{flag}: cannot create the folder {value!r} ({exc.strerror or exc})") from None
+        d = path
+        while d != probe:
+            os.rmdir(d)
+            d = os.path.dirname(d)
     return value
 
 

@@ -237,3 +237,13 @@ def test_an_image_that_is_not_one_is_named_for_what_it_is(kind, command, capsys,
     line = _fails([command, *images, "--rig", "hyperboloid", "--out", str(tmp_path / "o")], capsys)
     assert line == "catadioptric: error: " + expected
     assert not (tmp_path / "o").exists()
+
+
+def test_an_out_folder_the_system_refuses_is_one_line_before_any_work(tmp_path, capsys):
+    from catadioptric._checks import CatadioptricError
+    from catadioptric.cliargs import check_out_dir
+
+    with pytest.raises(CatadioptricError, match=r"^--out: cannot create the folder .*\(File name too long\)$"):
+        check_out_dir(str(tmp_path / ("a" * 300)))
+    # a folder that can be made is left as it was (not made by the check)
+    assert check_out_dir(str(tmp_path / "new" / "deeper")) and not (tmp_path / "new").exists()
