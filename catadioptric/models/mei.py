@@ -11,7 +11,7 @@ A point ``X`` of the camera frame (OpenCV's: x right, y down, z along the optica
     yd = y (1 + k1 r2 + k2 r2^2) + p1 (r2 + 2 y^2) + 2 p2 x y
     u = fx xd + s yd + cx,   v = fy yd + cy
 
-as ``cv2.omnidir.projectPoints`` computes it (checked in ``tests/test_models.py``). A point has
+as ``cv2.omnidir.projectPoints`` computes it (checked in ``tests/test_models_mei.py``). A point has
 an image when ``Xs_z + xi > 0`` and, for ``xi > 1``, ``1 + xi Xs_z >= 0`` (the side of the
 sphere the re-projection centre sees).
 
