@@ -68,3 +68,36 @@ def test_a_camera_that_moved_keeps_its_translation():
     t_true = -R_b @ c_b  # x_B = R_b (x - c_b) = R_b x_A - R_b c_b
     t_true /= np.linalg.norm(t_true)
     assert np.degrees(np.arccos(np.clip(p.t @ t_true, -1, 1))) < 3.0
+
+
+def _unlabelled(view, suffix):
+    """The same lines with nothing matched across views: families renamed, no line ids."""
+    return ViewLines(view.cam, view.uv, [f + suffix for f in view.family], None)
+
+
+def test_a_camera_turned_in_place_is_told_from_its_symmetric_rivals_without_labels():
+    # without labels the matching of meeting points decides between a room's symmetric rotations; with
+    # its bar out of reach (as on real photographs, where few meeting points match), only the turned
+    # camera's own rotation shows the room's lines again where they were, and that decides
+    # (off the room's centre: in a symmetric room seen from its centre, the half-turns show the same
+    # lines again too, and the answer stays ambiguous, as it should)
+    rng = np.random.default_rng(5)
+    c = np.array([0.7, -0.4, 0.2])
+    R_b = Rotation.from_euler("zyx", [20.0, -4.0, 3.0], degrees=True).as_matrix()
+    va = _unlabelled(_view(np.eye(3), c, 0.5, rng), "a")
+    vb = _unlabelled(_view(R_b, c, 0.5, rng), "b")
+    p = relative_pose(va, vb, decisive_matching=1e9)
+    assert p.margin < 1e9 and not p.ambiguous
+    assert any(n.startswith("decisive as a camera turned in place") for n in p.notes)
+    assert rotation_angle_deg(p.R @ R_b.T) < 0.5
+    assert not p.translation_observable
+
+
+def test_a_camera_that_moved_is_not_decided_by_lines_seen_again():
+    rng = np.random.default_rng(6)
+    R_b = Rotation.from_euler("z", 8.0, degrees=True).as_matrix()
+    va = _unlabelled(_view(np.eye(3), np.zeros(3), 0.5, rng), "a")
+    vb = _unlabelled(_view(R_b, np.array([0.8, 0.3, 0.0]), 0.5, rng), "b")
+    p = relative_pose(va, vb, decisive_matching=1e9)
+    assert p.ambiguous and p.translation_observable
+    assert not any(n.startswith("decisive as a camera turned in place") for n in p.notes)

@@ -29,7 +29,7 @@ import numpy as np
 from .rotation import skew
 
 __all__ = ["MeetingRays", "meeting_rays", "CrossingFit", "translation_direction_from_crossings", "Parallax", "parallax",
-           "PARALLAX_P", "Twins", "rotation_twins"]
+           "PARALLAX_P", "Twins", "rotation_twins", "rotation_twins_any_family"]
 
 
 @dataclass
@@ -422,3 +422,15 @@ def _overlap(a, b) -> float:
     inter = min(hi_a, hi_b) - max(lo_a, lo_b)
     shorter = min(hi_a - lo_a, hi_b - lo_b)
     return float(inter / shorter) if shorter > 0 else 0.0
+
+
+def rotation_twins_any_family(view_a, view_b, ea, eb, R) -> int:
+    """:func:`rotation_twins` over every pair of families (``ea``, ``eb``: each view's own
+    :class:`~catadioptric.pose.families.FamilyEstimate` dicts, keyed independently): the lines of A
+    seen again unchanged in B under ``R``, whatever family each was put in. The count a rotation
+    earns as the motion of a camera turned in place."""
+    n = 0
+    for fa in ea.values():
+        for fb in eb.values():
+            n += len(rotation_twins(view_a, view_b, {0: fa}, {0: fb}, [0], R).pairs)
+    return n
