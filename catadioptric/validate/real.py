@@ -361,7 +361,7 @@ def register_real(vs) -> None:
     p = vs.add_parser("real", help="vanishing points, families and pose on real catadioptric photographs",
                       description="Detection, the board's axes, the static camera's relative pose, the board's "
                                   "motion and absolute pose, and the OCamCalib room's families, on a folder laid out "
-                                  "as ../shared/real (docs/relative_pose.md, \"Real cameras\").")
+                                  "as ../shared/real (docs/cameras.md, \"How good it is\").")
     p.add_argument("--data", required=True, metavar="DIR", help="the folder of real images (e.g. ../shared/real)")
     p.add_argument("--out", required=True, metavar="DIR", help="report folder (e.g. validate/real)")
     p.add_argument("--max-rotation", type=positive_float, metavar="DEG", help="prior on the pairs' rotation")
