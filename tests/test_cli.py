@@ -10,27 +10,10 @@ import pytest
 import catadioptric
 from catadioptric.cli import build_parser, main
 from catadioptric.rigspec import RIG_DIR
+from cli_errors import fails
 
 ROOT = Path(__file__).resolve().parents[1]
 RIG_FILE = str(RIG_DIR / "hyperboloid_9pct.toml")
-
-
-def _error(capsys) -> str:
-    err = capsys.readouterr().err
-    assert "Traceback" not in err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    assert lines[0].startswith("catadioptric: error: ")
-    return lines[0]
-
-
-def _fails(argv, capsys) -> str:
-    try:
-        rc = main(argv)
-    except SystemExit as exc:  # argparse's own checks
-        rc = exc.code
-    assert rc == 2
-    return _error(capsys)
 
 
 def test_version(capsys):
@@ -54,15 +37,15 @@ def test_rigs_is_an_attribute_of_the_package():
 ])
 def test_every_rig_flag_takes_a_name_or_a_file_and_names_the_flag(argv, capsys, tmp_path):
     argv = [str(tmp_path / "o") if a == "OUT" else a for a in argv]
-    line = _fails(argv + ["--rig", "no_such_rig"], capsys)
+    line = fails(argv + ["--rig", "no_such_rig"], capsys)
     assert line.startswith("catadioptric: error: --rig: expected a rig spec file or one of ['cone',")
     assert line.endswith("got 'no_such_rig'")
-    line = _fails(argv + ["--rig", str(tmp_path / "missing.toml")], capsys)
+    line = fails(argv + ["--rig", str(tmp_path / "missing.toml")], capsys)
     assert line.startswith("catadioptric: error: --rig: no rig spec file at ")
     bad = tmp_path / "bad.toml"
     bad.write_text('[mirror]\nkind = "sphere"\nradius = -1\nz_min = 0\nz_max = 1\n[camera]\nfov_x_deg = 40\n'
                    'center = [0, 0, 1]\n')
-    line = _fails(argv + ["--rig", str(bad)], capsys)
+    line = fails(argv + ["--rig", str(bad)], capsys)
     assert line == "catadioptric: error: --rig: rig.mirror.radius: expected a positive number, got -1"
     # and the file is accepted where the name is (parsing; the runs are tested elsewhere)
     args = build_parser().parse_args(argv + ["--rig", RIG_FILE])
@@ -89,7 +72,7 @@ def test_centrality_and_geometry_demo_accept_a_rig_file(tmp_path, capsys):
 ])
 def test_numeric_flags_are_checked_in_one_line(argv, flag, expected, capsys, tmp_path):
     argv = [str(tmp_path / "o") if a == "OUT" else a for a in argv]
-    assert _fails(argv, capsys) == f"catadioptric: error: {flag}: {expected}"
+    assert fails(argv, capsys) == f"catadioptric: error: {flag}: {expected}"
 
 
 def test_defaults_never_overwrite_committed_reports():
@@ -102,18 +85,18 @@ def test_defaults_never_overwrite_committed_reports():
 
 @pytest.mark.parametrize("value", ["80x60x3", "x60", "80x", "640 x 480", "-640x480", "huge"])
 def test_resolution_forms(value, capsys, tmp_path):
-    line = _fails(["render", "tiny_street", "--out", str(tmp_path / "o"), f"--resolution={value}"], capsys)
+    line = fails(["render", "tiny_street", "--out", str(tmp_path / "o"), f"--resolution={value}"], capsys)
     assert line == ("catadioptric: error: --resolution: expected one of ['hd', 'small', 'tiny', 'vga'] or "
                     f"WIDTHxHEIGHT (two positive integers, e.g. 640x480), got {value!r}")
     assert not (tmp_path / "o").exists()
 
 
 def test_resolution_too_large_is_refused_before_rendering(capsys, tmp_path):
-    line = _fails(["render", "tiny_street", "--out", str(tmp_path / "o"), "--resolution", "16384x16384"], capsys)
+    line = fails(["render", "tiny_street", "--out", str(tmp_path / "o"), "--resolution", "16384x16384"], capsys)
     assert line == ("catadioptric: error: --resolution: expected at most 16777216 pixels (4096x4096; a view takes "
                     "about 200 bytes of memory per pixel), got 16384x16384 = 268435456")
     assert not (tmp_path / "o").exists()
-    line = _fails(["demo", "--out", str(tmp_path / "d"), "--resolution", "4097x4096"], capsys)
+    line = fails(["demo", "--out", str(tmp_path / "d"), "--resolution", "4097x4096"], capsys)
     assert "--resolution: expected at most 16777216 pixels" in line
     assert not (tmp_path / "d").exists()
 
@@ -122,10 +105,10 @@ def test_out_that_cannot_be_a_folder(capsys, tmp_path):
     f = tmp_path / "a_file"
     f.write_text("x")
     for cmd in (["render", "tiny_street", "--views", "A"], ["centrality"], ["demo", "--geometry"]):
-        assert _fails(cmd + ["--out", str(f)], capsys) == f"catadioptric: error: --out: expected a folder, got the file {str(f)!r}"
-        assert _fails(cmd + ["--out", str(f / "sub")], capsys) == (
+        assert fails(cmd + ["--out", str(f)], capsys) == f"catadioptric: error: --out: expected a folder, got the file {str(f)!r}"
+        assert fails(cmd + ["--out", str(f / "sub")], capsys) == (
             f"catadioptric: error: --out: expected a folder, got {str(f / 'sub')!r}, which lies under the file {str(f)!r}")
-        assert _fails(cmd + ["--out", ""], capsys) == "catadioptric: error: --out: expected a folder path, got ''"
+        assert fails(cmd + ["--out", ""], capsys) == "catadioptric: error: --out: expected a folder path, got ''"
     assert f.read_text() == "x"
 
 
@@ -138,14 +121,14 @@ def test_out_unwritable(capsys, tmp_path):
         parent.mkdir()
         parent.chmod(0o500)
     target = parent / "catadioptric-out"
-    line = _fails(["render", "tiny_street", "--views", "A", "--out", str(target)], capsys)
+    line = fails(["render", "tiny_street", "--views", "A", "--out", str(target)], capsys)
     assert line == (f"catadioptric: error: --out: expected a writable folder, got {str(target)!r} (cannot write "
                     f"in the folder {str(parent)!r} that would hold it)")
 
 
 def test_scheduler_fails_fast(capsys, tmp_path):
     out = str(tmp_path / "o")
-    line = _fails(["render", "tiny_street", "--out", out, "--resolution", "tiny", "--scheduler", "hello"], capsys)
+    line = fails(["render", "tiny_street", "--out", out, "--resolution", "tiny", "--scheduler", "hello"], capsys)
     assert line.startswith("catadioptric: error: --scheduler: cannot resolve the host 'hello' of 'hello' (")
     # a port on this machine that nobody listens on: bind one, keep it closed to connections
     import socket
@@ -154,11 +137,11 @@ def test_scheduler_fails_fast(capsys, tmp_path):
     s.bind(("127.0.0.1", 0))
     port = s.getsockname()[1]
     s.close()
-    line = _fails(["render", "tiny_street", "--out", out, "--resolution", "tiny", "--scheduler",
+    line = fails(["render", "tiny_street", "--out", out, "--resolution", "tiny", "--scheduler",
                    f"tcp://127.0.0.1:{port}"], capsys)
     assert line.startswith(f"catadioptric: error: --scheduler: cannot reach a Dask scheduler at "
                            f"'tcp://127.0.0.1:{port}' (")
-    line = _fails(["render", "tiny_street", "--out", out, "--scheduler", "tcp://127.0.0.1:99999"], capsys)
+    line = fails(["render", "tiny_street", "--out", out, "--scheduler", "tcp://127.0.0.1:99999"], capsys)
     assert line == "catadioptric: error: --scheduler: expected a port number in 1..65535 in 'tcp://127.0.0.1:99999', got '99999'"
     assert not os.path.exists(out)
 
@@ -234,7 +217,7 @@ def test_an_image_that_is_not_one_is_named_for_what_it_is(kind, command, capsys,
         path = str(tmp_path / "none.png")
         expected = f"IMAGE: expected an image file, a dataset view folder or a dataset folder, got {path!r}, which does not exist"
     images = [path] if command == "detect" else [path, path]
-    line = _fails([command, *images, "--rig", "hyperboloid", "--out", str(tmp_path / "o")], capsys)
+    line = fails([command, *images, "--rig", "hyperboloid", "--out", str(tmp_path / "o")], capsys)
     assert line == "catadioptric: error: " + expected
     assert not (tmp_path / "o").exists()
 
