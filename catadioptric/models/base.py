@@ -28,7 +28,7 @@ import numpy as np
 
 from .._checks import CatadioptricError, as_float_array
 
-__all__ = ["CentralCamera", "ROUND_TRIP_PX", "check_size", "image_size"]
+__all__ = ["CentralCamera", "ROUND_TRIP_PX", "check_size", "image_size", "nonzero_focal"]
 
 #: a pixel belongs to the model's image region when its ray projects back within this many pixels
 ROUND_TRIP_PX = 1e-3
@@ -48,6 +48,17 @@ def check_size(width, height, where: str) -> tuple[int, int]:
             v = int(f)
         out.append(int(v))
     return out[0], out[1]
+
+
+def nonzero_focal(v, name: str) -> float:
+    """A focal length as a float: a real number other than zero (a negative one mirrors the image,
+    which a tool's formula allows)."""
+    from .._checks import as_scalar
+
+    v = as_scalar(v, name)
+    if v == 0:
+        raise CatadioptricError(f"{name}: expected a non-zero focal length, got {v!r}")
+    return v
 
 
 def image_size(cam) -> tuple[int, int]:

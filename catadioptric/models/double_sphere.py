@@ -26,8 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._checks import CatadioptricError, as_scalar
-from .base import CentralCamera
-from .eucm import _nonzero
+from .base import CentralCamera, nonzero_focal
 
 __all__ = ["DoubleSphereCamera"]
 
@@ -54,8 +53,8 @@ class DoubleSphereCamera(CentralCamera):
             raise CatadioptricError(f"alpha: expected a number in [0, 1], got {alpha!r}")
         object.__setattr__(self, "xi", as_scalar(self.xi, "xi"))
         object.__setattr__(self, "alpha", alpha)
-        object.__setattr__(self, "fu", _nonzero(self.fu, "fu"))
-        object.__setattr__(self, "fv", _nonzero(self.fv, "fv"))
+        object.__setattr__(self, "fu", nonzero_focal(self.fu, "fu"))
+        object.__setattr__(self, "fv", nonzero_focal(self.fv, "fv"))
         object.__setattr__(self, "pu", as_scalar(self.pu, "pu"))
         object.__setattr__(self, "pv", as_scalar(self.pv, "pv"))
 

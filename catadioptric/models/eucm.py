@@ -25,16 +25,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._checks import CatadioptricError, as_scalar
-from .base import CentralCamera
+from .base import CentralCamera, nonzero_focal
 
 __all__ = ["EUCMCamera"]
 
-
-def _nonzero(v, name):
-    v = as_scalar(v, name)
-    if v == 0:
-        raise CatadioptricError(f"{name}: expected a non-zero focal length, got {v!r}")
-    return v
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -62,8 +56,8 @@ class EUCMCamera(CentralCamera):
             raise CatadioptricError(f"beta: expected a positive number, got {beta!r}")
         object.__setattr__(self, "alpha", alpha)
         object.__setattr__(self, "beta", beta)
-        object.__setattr__(self, "fu", _nonzero(self.fu, "fu"))
-        object.__setattr__(self, "fv", _nonzero(self.fv, "fv"))
+        object.__setattr__(self, "fu", nonzero_focal(self.fu, "fu"))
+        object.__setattr__(self, "fv", nonzero_focal(self.fv, "fv"))
         object.__setattr__(self, "pu", as_scalar(self.pu, "pu"))
         object.__setattr__(self, "pv", as_scalar(self.pv, "pv"))
 

@@ -33,10 +33,10 @@ import numpy as np
 from .._checks import CatadioptricError, as_float_array, as_scalar
 from .base import CentralCamera
 
-__all__ = ["MeiCamera", "undistort_radtan", "monotone_r2"]
+__all__ = ["MeiCamera", "radtan_distort", "undistort_radtan", "monotone_r2"]
 
 
-def _radtan(x, y, k1, k2, p1, p2):
+def radtan_distort(x, y, k1, k2, p1, p2):
     """Distorted ``(xd, yd)`` and the Jacobian entries ``d(xd, yd) / d(x, y)``."""
     r2 = x * x + y * y
     rad = 1.0 + k1 * r2 + k2 * r2 * r2
@@ -58,7 +58,7 @@ def undistort_radtan(xd, yd, k1, k2, p1, p2, iters: int = 30):
         return x, y, np.isfinite(x) & np.isfinite(y)
     scale = np.maximum(1.0, np.hypot(xd, yd))
     for _ in range(iters):
-        fx, fy, a, b, c, d = _radtan(x, y, k1, k2, p1, p2)
+        fx, fy, a, b, c, d = radtan_distort(x, y, k1, k2, p1, p2)
         ex, ey = fx - xd, fy - yd
         det = a * d - b * c
         with np.errstate(all="ignore"):
@@ -73,7 +73,7 @@ def undistort_radtan(xd, yd, k1, k2, p1, p2, iters: int = 30):
         x, y = x - f * dx, y - f * dy
         if np.all(np.hypot(ex, ey) <= 1e-15 * scale):
             break
-    fx, fy, a, b, c, d = _radtan(x, y, k1, k2, p1, p2)
+    fx, fy, a, b, c, d = radtan_distort(x, y, k1, k2, p1, p2)
     ok = (np.hypot(fx - xd, fy - yd) <= 1e-12 * scale) & (a * d - b * c > 0) & (x * x + y * y < monotone_r2(k1, k2))
     return x, y, ok
 
@@ -149,6 +149,6 @@ class MeiCamera(CentralCamera):
         K = self.K
         den = X[..., 2] + self.xi
         x, y = X[..., 0] / den, X[..., 1] / den
-        xd, yd = _radtan(x, y, *self.D)[:2]
+        xd, yd = radtan_distort(x, y, *self.D)[:2]
         uv = np.stack([K[0, 0] * xd + K[0, 1] * yd + K[0, 2], K[1, 1] * yd + K[1, 2]], axis=-1)
         return uv, self._sees(X[..., 2])

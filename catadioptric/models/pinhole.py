@@ -34,9 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._checks import CatadioptricError, as_float_array, as_scalar
-from .base import CentralCamera
-from .eucm import _nonzero
-from .mei import _radtan, undistort_radtan
+from .base import CentralCamera, nonzero_focal
+from .mei import radtan_distort, undistort_radtan
 
 __all__ = ["KalibrPinholeCamera", "PINHOLE_DISTORTIONS"]
 
@@ -84,8 +83,8 @@ class KalibrPinholeCamera(CentralCamera):
             D = D[:0]  # zeros written for "none" are no distortion
         if D.size != n:
             raise CatadioptricError(f"distortion_coeffs: expected {n} numbers for distortion_model {dm}, got {D.size}")
-        object.__setattr__(self, "fu", _nonzero(self.fu, "fu"))
-        object.__setattr__(self, "fv", _nonzero(self.fv, "fv"))
+        object.__setattr__(self, "fu", nonzero_focal(self.fu, "fu"))
+        object.__setattr__(self, "fv", nonzero_focal(self.fv, "fv"))
         object.__setattr__(self, "pu", as_scalar(self.pu, "pu"))
         object.__setattr__(self, "pv", as_scalar(self.pv, "pv"))
         object.__setattr__(self, "distortion_coeffs", tuple(float(v) for v in D))
@@ -147,7 +146,7 @@ class KalibrPinholeCamera(CentralCamera):
         else:
             xn, yn = x / z, y / z
             if self.distortion_model == "radtan":
-                xd, yd = _radtan(xn, yn, *self.distortion_coeffs)[:2]
+                xd, yd = radtan_distort(xn, yn, *self.distortion_coeffs)[:2]
             else:
                 xd, yd = xn, yn
             valid = z > 0
