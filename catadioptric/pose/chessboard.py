@@ -392,49 +392,6 @@ def find_chessboard_corners(image, cam, pattern, *, mask=None, method: str = "au
                             f"{', '.join(tries)})")
 
 
-# =========================================================================== lines through the model
-def _rays_and_jacobians(cam, uv, h: float = 0.25):
-    """Unit rays ``(N, 3)`` of pixels and their derivatives ``(N, 3, 2)`` by the pixel."""
-    pts = np.concatenate([uv, uv + [h, 0], uv - [h, 0], uv + [0, h], uv - [0, h]])
-    r = cam.backproject(pts)
-    if not np.all(r.valid):
-        raise CatadioptricError("corners: a corner (or its neighbourhood) has no ray in the camera model")
-    d = r.directions.reshape(5, len(uv), 3)
-    J = np.stack([(d[1] - d[2]) / (2 * h), (d[3] - d[4]) / (2 * h)], axis=-1)
-    return d[0], J
-
-
-def _fit_plane(d, J, iters: int = 20):
-    """The plane through the viewpoint that holds rays ``d (M, 3)``: unit normal minimising the
-    first-order pixel distances ``(n . d_j) / |J_j^T n|``; returns ``(n, residuals_px, A, w)``."""
-    n = np.linalg.eigh(d.T @ d)[1][:, 0]
-    w = np.ones(len(d))
-    for _ in range(iters):
-        g = np.linalg.norm(np.einsum("mij,i->mj", J, n), axis=1)
-        w = 1.0 / np.maximum(g, 1e-300) ** 2
-        n_new = np.linalg.eigh((d * w[:, None]).T @ d)[1][:, 0]
-        if n_new @ n < 0:
-            n_new = -n_new
-        done = np.linalg.norm(n_new - n) < 1e-15
-        n = n_new
-        if done:
-            break
-    g = np.linalg.norm(np.einsum("mij,i->mj", J, n), axis=1)
-    return n, (d @ n) / g, 1.0 / g ** 2
-
-
-def _plane_covs(d, lines, fits, sigma2):
-    from ..linefit._common import _tangent_basis
-
-    covs = []
-    for idx, (n, _, w) in zip(lines, fits):
-        e1, e2 = _tangent_basis(n)
-        E = np.stack([e1, e2], axis=1)
-        A = d[idx] @ E
-        covs.append(sigma2 * E @ np.linalg.pinv((A * w[:, None]).T @ A) @ E.T)
-    return np.array(covs)
-
-
 # =========================================================================== refinement
 def _project(cam, X):
     pr = cam.project(X)
@@ -516,6 +473,7 @@ def chessboard_pose(image, cam, pattern=(8, 6), square: float = 1.0, mask=None, 
     the board may be, of the image's size. ``corners (cols * rows, 2)``: the corners already found
     (in OpenCV's order; ``image`` is then only checked for its size and may be None)."""
     from ..linefit.central import direction_from_planes
+    from ..linefit.planes import pixel_rays_with_jacobian, plane_covariance, plane_distances, refine_plane
     from .rotation import refine_rotation, rotation_from_directions
     from .translation import translation_from_lines
 
@@ -543,12 +501,21 @@ def chessboard_pose(image, cam, pattern=(8, 6), square: float = 1.0, mask=None, 
             raise CatadioptricError(f"corners: expected {cols * rows} finite pixels (cols * rows), got {len(uv)}")
         how = "given"
     P = board_points(pattern, square)
-    d, J = _rays_and_jacobians(cam, uv)
+    # each row and column of corners through the model: its interpretation plane (the first-order
+    # pixel distances of its corners' rays, linefit.planes)
+    rays = pixel_rays_with_jacobian(cam, uv)
+    if not np.all(rays.ok):
+        raise CatadioptricError("corners: a corner (or its neighbourhood) has no ray in the camera model")
+    d = rays.d
+
+    def fit(i):
+        n = refine_plane(rays.take(i), iters=50, tol=1e-15)
+        return n, plane_distances(n, rays.take(i))
 
     # the two families: rows (x) and columns (y)
     idx = np.arange(cols * rows).reshape(rows, cols)
     fams = [[idx[r] for r in range(rows)], [idx[:, c] for c in range(cols)]]
-    fits = [[_fit_plane(d[i], J[i]) for i in lines] for lines in fams]
+    fits = [[fit(i) for i in lines] for lines in fams]
     res = np.concatenate([f[1] for fam in fits for f in fam])
     dof = sum(len(i) - 2 for lines in fams for i in lines)
     sigma2_lines = float(res @ res / dof)
@@ -556,7 +523,8 @@ def chessboard_pose(image, cam, pattern=(8, 6), square: float = 1.0, mask=None, 
     dirs, dcovs = [], []
     for k in range(2):
         normals = np.array([f[0] for f in fits[k]])
-        covs = _plane_covs(d, fams[k], fits[k], sigma2_lines)
+        covs = np.array([plane_covariance(f[0], rays.take(i), math.sqrt(sigma2_lines))
+                         for i, f in zip(fams[k], fits[k])])
         s, C = direction_from_planes(normals, covs)
         # orient along the board's axis: along a line, the rays turn towards its direction
         first = np.array([i[0] for i in fams[k]])
