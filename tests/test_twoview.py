@@ -256,7 +256,8 @@ def test_an_assignment_whose_lines_match_nothing_costs_the_ceiling():
     m = family_matches(ea, eb)[0]
     found = match_lines(va, vb, ea, eb, m)
     assert found.t is not None and 0 < found.cost < 9.0 * found.n_crossings
-    none = match_lines(va, vb, ea, eb, m, max_parallax_deg=1e-9)  # no meeting point of A near one of B
+    # no meeting point of A near one of B, and no family matched in its order
+    none = match_lines(va, vb, ea, eb, m, max_parallax_deg=1e-9, max_ordered_lines=0)
     assert none.t is None and none.pairs == [] and none.n_inliers == 0
     assert none.n_crossings == found.n_crossings and none.cost == 9.0 * none.n_crossings
 

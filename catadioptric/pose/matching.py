@@ -29,7 +29,7 @@ import numpy as np
 from .central import _costs, _meeting, _rad_per_px, _residuals2, _sides
 from .rotation import refine_rotation, rotation_angle_deg, rotation_from_directions
 
-__all__ = ["FamilyMatch", "family_matches", "LineMatch", "match_lines"]
+__all__ = ["FamilyMatch", "family_matches", "LineMatch", "LinesInOrder", "match_lines"]
 
 
 @dataclass
@@ -177,97 +177,231 @@ def _crossings(view, est: dict, fam_of: dict):
     return x, lines, pairs
 
 
+def _pencil_order(normals, e1, e2) -> np.ndarray:
+    """Positions of a family's lines in the order of their planes about the family's direction
+    (normal to ``e1``, ``e2``): the planes' angle modulo a half-turn, cut at its widest gap."""
+    th = np.mod(np.arctan2(normals @ e2, normals @ e1), np.pi)
+    o = np.argsort(th, kind="stable")
+    gaps = np.diff(np.r_[th[o], th[o[0]] + np.pi])
+    return np.roll(o, -(int(np.argmax(gaps)) + 1))
+
+
+def _monotone_alignment(gain: np.ndarray) -> list:
+    """The pairs ``(i, j)``, increasing in both, of largest total ``gain[i, j]`` (only positive gains
+    are taken): a sequence alignment by dynamic programming."""
+    n, m = gain.shape
+    D = np.zeros((n + 1, m + 1))
+    for i in range(1, n + 1):
+        for j in range(1, m + 1):
+            D[i, j] = max(D[i - 1, j], D[i, j - 1], D[i - 1, j - 1] + max(gain[i - 1, j - 1], 0.0))
+    pairs, i, j = [], n, m
+    while i > 0 and j > 0:
+        if gain[i - 1, j - 1] > 0 and D[i, j] == D[i - 1, j - 1] + gain[i - 1, j - 1]:
+            pairs.append((i - 1, j - 1))
+            i, j = i - 1, j - 1
+        elif D[i, j] == D[i - 1, j]:
+            i -= 1
+        else:
+            j -= 1
+    return pairs[::-1]
+
+
+class LinesInOrder:
+    """Lines of families matched in their order, for repeated patterns.
+
+    Parallel lines on one plane (a chessboard's rows, a grid of windows) are seen, from any centre
+    on one side of the plane, in the order they lie: the planes through the centre that hold them
+    turn monotonically about the family's direction. A rotation maps that order in A onto the order
+    in B (the angles measured in bases ``e1, e2`` of A and ``R e1, R e2`` of B keep their sense). The
+    RANSAC of :func:`match_lines` pairs each meeting ray of A with its few nearest in B under the
+    rotation, which misses a pattern whose parallax spans several of its cells (a board carried
+    around the camera: 9-56 degrees of parallax for cells of 5-6 degrees on ``../shared/real/mei``);
+    the order does not depend on the parallax.
+
+    1. Seeds: for two families, every pair of offsets (line ``i`` of A with line ``i - o`` of B)
+       that leaves at least ``min_meetings`` meeting rays in common gives a displacement (least
+       squares on those rays, then on their inliers), ranked by the truncated cost over A's rays.
+    2. Each seed is then aligned again, family by family, against the lines the others have matched:
+       the pairs of lines, in order and with gaps (a line missed in one view, another found only in
+       one), whose meeting rays fit the displacement best (:func:`_monotone_alignment`), and the
+       displacement fitted again; three rounds.
+
+    Lines of families that are not on one plane give matchings that fit nothing, which the
+    verification of :func:`match_lines` then rejects."""
+
+    def __init__(self, ea: dict, eb: dict, match: FamilyMatch, crossings_a, crossings_b, *, max_lines: int = 24,
+                 min_meetings: int = 6, rounds: int = 3):
+        self.R = match.R
+        self.xa, la = crossings_a
+        self.xb, lb = crossings_b
+        self.ra = self.xa @ self.R.T
+        self.min_meetings, self.rounds = min_meetings, rounds
+        self.orders = {}
+        for b, (a, _) in match.mapping.items():
+            na, nb = len(ea[a].lines), len(eb[b].lines)
+            if not (2 <= na <= max_lines and 2 <= nb <= max_lines):
+                continue
+            d = ea[a].direction
+            e1 = np.cross(d, np.eye(3)[int(np.argmin(np.abs(d)))])
+            e1 /= np.linalg.norm(e1)
+            e2 = np.cross(d, e1)
+            oa = np.asarray(ea[a].lines)[_pencil_order(ea[a].normals, e1, e2)]
+            ob = np.asarray(eb[b].lines)[_pencil_order(eb[b].normals, self.R @ e1, self.R @ e2)]
+            self.orders[a] = (oa, ob)
+        self.keys = sorted(self.orders, key=str)  # the meeting rays' lines are ordered by family key
+        cross_a = {(int(l1), int(l2)): k for k, (l1, l2) in enumerate(la)}
+        cross_b = {(int(l1), int(l2)): k for k, (l1, l2) in enumerate(lb)}
+        self.grids = {}
+        for f, g in itertools.combinations(self.keys, 2):
+            self.grids[f, g] = tuple(self._grid(self.orders[f][v], self.orders[g][v], c)
+                                     for v, c in ((0, cross_a), (1, cross_b)))
+
+    @staticmethod
+    def _grid(first, second, cross):
+        """Meeting-ray indices ``(len(first), len(second))`` of two ordered families (-1: none)."""
+        g = np.full((len(first), len(second)), -1, dtype=int)
+        for i, l1 in enumerate(first):
+            for j, l2 in enumerate(second):
+                g[i, j] = cross.get((int(l1), int(l2)), -1)
+        return g
+
+    def _between(self, f, g):
+        """The grids of families ``f`` (rows) and ``g`` (columns) in A and in B."""
+        if (f, g) in self.grids:
+            return self.grids[f, g]
+        GA, GB = self.grids[g, f]
+        return GA.T, GB.T
+
+    def _r2(self, kA, kB, t, thr, c2):
+        """Truncated squared residuals (shape of ``kA``) of A's meeting rays ``kA`` seen as B's ``kB``
+        under displacement ``t``: ``c2`` where either is missing or the rays do not meet ahead."""
+        ok = (kA >= 0) & (kB >= 0)
+        out = np.full(kA.shape, c2)
+        if ok.any():
+            P, Q = self.ra[kA[ok]], self.xb[kB[ok]]
+            Av = np.cross(P, Q)
+            Av /= np.maximum(np.linalg.norm(Av, axis=1), 1e-300)[:, None]
+            _, inl = _costs(Av, P, Q, t[None], thr, c2, min_parallax=3.0 * thr)
+            out[ok] = np.where(inl[0], _residuals2(Av, t[None], thr)[0], c2)
+        return out
+
+    def _fit(self, kA, kB, thr, c2, rounds: int = 3):
+        """The displacement of A's meeting rays ``kA`` seen as B's ``kB`` (1-D, all present): least
+        squares, then again on its inliers (``rounds`` in all); with its truncated cost over all of
+        A's meeting rays."""
+        P, Q = self.ra[kA], self.xb[kB]
+        Av = np.cross(P, Q)
+        Av /= np.maximum(np.linalg.norm(Av, axis=1), 1e-300)[:, None]
+        use = np.ones(len(kA), dtype=bool)
+        t, cost = None, np.inf
+        for _ in range(rounds):
+            if use.sum() < 2:
+                break
+            u = np.linalg.eigh(Av[use].T @ Av[use])[1][:, 0]
+            T = np.stack([u, -u])
+            costs, inl = _costs(Av, P, Q, T, thr, c2, min_parallax=3.0 * thr)
+            h = int(np.argmin(costs))
+            t, cost, use = T[h], float(costs[h]) + c2 * (len(self.xa) - len(kA)), inl[h]
+        return t, cost
+
+    def _meetings_of(self, pairs):
+        """A's and B's meeting rays ``(kA, kB)`` of every two matched lines of different families
+        (``pairs``: ``{family: [(position in A, position in B)]}``)."""
+        kA, kB = [], []
+        for f, g in itertools.combinations([k for k in self.keys if pairs.get(k)], 2):
+            GA, GB = self.grids[f, g]
+            pf, pg = np.array(pairs[f]), np.array(pairs[g])
+            kA.append(GA[np.ix_(pf[:, 0], pg[:, 0])].ravel())
+            kB.append(GB[np.ix_(pf[:, 1], pg[:, 1])].ravel())
+        if not kA:
+            return np.zeros(0, int), np.zeros(0, int)
+        kA, kB = np.concatenate(kA), np.concatenate(kB)
+        ok = (kA >= 0) & (kB >= 0)
+        return kA[ok], kB[ok]
+
+    def _realign(self, pairs, t, thr, c2):
+        """Each family's lines aligned again against the others' matched lines (class docstring, 2)."""
+        for _ in range(self.rounds):
+            for f in self.keys:
+                gain = np.zeros((len(self.orders[f][0]), len(self.orders[f][1])))
+                for g in self.keys:
+                    if g == f or not pairs.get(g):
+                        continue
+                    GA, GB = self._between(f, g)
+                    pg = np.array(pairs[g])
+                    kA = np.broadcast_to(GA[:, pg[:, 0]][:, None, :], gain.shape + (len(pg),))
+                    kB = np.broadcast_to(GB[:, pg[:, 1]][None, :, :], gain.shape + (len(pg),))
+                    gain += np.sum(c2 - self._r2(kA, kB, t, thr, c2), axis=2)
+                pairs[f] = _monotone_alignment(gain)
+            kA, kB = self._meetings_of(pairs)
+            if len(kA) < self.min_meetings:
+                break
+            t_new, _ = self._fit(kA, kB, thr, c2)
+            if t_new is None:
+                break
+            t = t_new
+        return pairs, t
+
+    def _seeds(self, thr, c2):
+        """Every pair of offsets of every two families (class docstring, 1): ``[(cost, pairs, t)]``."""
+        found = []
+        for f, g in itertools.combinations(self.keys, 2):
+            GA, GB = self.grids[f, g]
+            (na_f, na_g), (nb_f, nb_g) = GA.shape, GB.shape
+            for df in range(-(nb_f - 1), na_f):
+                i0, i1 = max(0, df), min(na_f, nb_f + df)
+                for dg in range(-(nb_g - 1), na_g):
+                    j0, j1 = max(0, dg), min(na_g, nb_g + dg)
+                    kA, kB = GA[i0:i1, j0:j1], GB[i0 - df:i1 - df, j0 - dg:j1 - dg]
+                    ok = (kA >= 0) & (kB >= 0)
+                    if ok.sum() < self.min_meetings:
+                        continue
+                    t, cost = self._fit(kA[ok], kB[ok], thr, c2, rounds=1)
+                    if t is not None:
+                        pairs = {f: [(i, i - df) for i in range(i0, i1)], g: [(j, j - dg) for j in range(j0, j1)]}
+                        found.append((cost, pairs, (kA[ok], kB[ok])))
+        found.sort(key=lambda h: h[0])
+        return found
+
+    def hypotheses(self, thr: float, c2: float, *, top: int = 8) -> list:
+        """The ``top`` best seeds, each aligned again: ``[(pairs of lines (A, B), unit displacement)]``."""
+        out = []
+        seeds = []
+        for _, pairs, (kA, kB) in self._seeds(thr, c2)[:4 * top]:  # one least squares each, then three rounds
+            t, cost = self._fit(kA, kB, thr, c2)
+            seeds.append((cost, pairs, t))
+        seeds.sort(key=lambda h: h[0])
+        for _, pairs, t in seeds[:top]:
+            pairs, t = self._realign(dict(pairs), t, thr, c2)
+            lines = [(int(self.orders[f][0][i]), int(self.orders[f][1][j])) for f, ps in pairs.items() for i, j in ps]
+            out.append((lines, t))
+        return out
+
+
 def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma_px: float = 1.0, seed: int = 0,
                 trials: int = 2000, neighbours: int = 4, max_parallax_deg: float = 45.0,
-                c2: float = 9.0, verify: int = 8, verify_apart_deg: float = 2.0) -> LineMatch:
+                c2: float = 9.0, verify: int = 8, verify_apart_deg: float = 2.0,
+                max_ordered_lines: int = 24) -> LineMatch:
     """Match the lines of the two views for one family assignment (module docstring). ``verify``:
     the number of RANSAC displacements, best first and at least ``verify_apart_deg`` apart, that are
-    each refined and verified by the one-to-one matching of the lines; the best verified one wins."""
+    each refined and verified by the one-to-one matching of the lines; the best verified one wins.
+    ``max_ordered_lines``: families of at most this many lines in each view are also matched in
+    their order (:class:`LinesInOrder`), and those matchings are verified the same way."""
     R = match.R
     xa, la, pa = _crossings(view_a, ea, {k: k for k in ea})
     xb, lb, pb = _crossings(view_b, eb, {b: a for b, (a, _) in match.mapping.items()})
     if len(xa) < 2 or len(xb) < 2:
         return LineMatch([], None, float(c2 * len(xa)), 0, len(xa))
-    # B's lines were ordered by A's family keys, so the two lines of a pair correspond in order
-    by_pair: dict = {}
-    for j, p in enumerate(pb):
-        by_pair.setdefault(p, []).append(j)
     ra = xa @ R.T
-    cand_i, cand_j = [], []
-    cos_max = np.cos(np.radians(max_parallax_deg))
-    for i, p in enumerate(pa):
-        js = np.array(by_pair.get(p, []), dtype=int)
-        if len(js) == 0:
-            continue
-        c = xb[js] @ ra[i]
-        order = np.argsort(-c)[:neighbours]
-        js = js[order][c[order] > cos_max]
-        cand_i += [i] * len(js)
-        cand_j += list(js)
-    if len(cand_i) < 2:
-        return LineMatch([], None, float(c2 * len(xa)), 0, len(xa))
-    ci, cj = np.array(cand_i), np.array(cand_j)
-    p_, q_ = ra[ci], xb[cj]
-    A = np.cross(p_, q_)
-    na = np.linalg.norm(A, axis=1)
-    A = A / np.maximum(na, 1e-300)[:, None]
     rpp = max(_rad_per_px(view_a.cam), _rad_per_px(view_b.cam))
     thr = 3.0 * max(0.5, 0.5 * sigma_px) * np.sqrt(2.0) * rpp
-    rng = np.random.default_rng(seed)
-    S = rng.integers(0, len(ci), (trials, 2))
-    S = S[ci[S[:, 0]] != ci[S[:, 1]]]
-    T = np.cross(A[S[:, 0]], A[S[:, 1]])
-    nt = np.linalg.norm(T, axis=1)
-    T = T[nt > 1e-9] / nt[nt > 1e-9, None]
-    if len(T) == 0:
-        return LineMatch([], None, float(c2 * len(xa)), 0, len(xa))
-    T = np.concatenate([T, -T])
-
-    def per_crossing_cost(Ts):
-        cost, inl = _costs(A, p_, q_, Ts, thr, c2, min_parallax=3.0 * thr)  # per candidate pair
-        r2 = _residuals2(A, Ts, thr)
-        r2 = np.where(inl, r2, c2)
-        best = np.full((len(Ts), len(xa)), c2)
-        for k in range(len(Ts)):
-            np.minimum.at(best[k], ci, r2[k])
-        return best.sum(axis=1), r2
-
-    def best_pairs(t):
-        """Each meeting ray of A at its best inlier candidate in B: ``{i: candidate index}``."""
-        r2 = per_crossing_cost(t[None])[1][0]
-        best = {}
-        for k in np.nonzero(r2 < c2)[0]:
-            if ci[k] not in best or r2[k] < r2[best[ci[k]]]:
-                best[ci[k]] = k
-        return best
-
-    costs = np.concatenate([per_crossing_cost(T[c:c + 256])[0] for c in range(0, len(T), 256)])
     b_cross = {(int(l1), int(l2)): j for j, (l1, l2) in enumerate(lb)}
 
-    def verified(t):
-        """Least squares on ``t``'s inlier pairs, lines matched one to one by the votes of the
-        meeting rays, and the verified cost (below)."""
-        for _ in range(5):  # least squares on the inlier pairs
-            ks = np.array(list(best_pairs(t).values()), dtype=int)
-            if len(ks) < 2:
-                break
-            t_new = np.linalg.eigh(A[ks].T @ A[ks])[1][:, 0]
-            t = t_new if t_new @ t >= 0 else -t_new
-        best_j = best_pairs(t)
-        votes: dict = {}
-        for i, k in best_j.items():
-            for a_line, b_line in zip(la[i], lb[cj[k]]):
-                votes[(int(a_line), int(b_line))] = votes.get((int(a_line), int(b_line)), 0) + 1
-        pairs, used_a, used_b = [], set(), set()
-        for (a_line, b_line), v in sorted(votes.items(), key=lambda kv: -kv[1]):
-            if v < 2 or a_line in used_a or b_line in used_b:
-                continue
-            pairs.append((a_line, b_line))
-            used_a.add(a_line)
-            used_b.add(b_line)
-        # verified: a meeting ray of A counts only where the lines matched to its two lines meet in B, on
-        # its epipolar plane and in front of both centres (chance agreements of a wrong rotation spread
-        # over many pairs of lines and do not survive the one-to-one matching of the lines)
+    def scored(pairs, t):
+        """The verified cost of lines matched one to one: a meeting ray of A counts only where the
+        lines matched to its two lines meet in B, on its epipolar plane and in front of both centres
+        (chance agreements of a wrong rotation spread over many pairs of lines and do not survive the
+        one-to-one matching of the lines)."""
         to_b = dict(pairs)
         vi, vj = [], []
         for i, (l1, l2) in enumerate(la):
@@ -287,15 +421,99 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
             cost_v = float(np.sum(r2[ok]) + c2 * (len(xa) - n_ok))
         return LineMatch(pairs, t, cost_v, n_ok, len(xa))
 
-    # the RANSAC cost counts chance agreements of pairs of meeting rays, which the one-to-one
-    # matching of the lines removes: it can rank a wrong displacement first by a hair (a 1e-14 change
-    # of the planes swapped the two on a CI pair). So the best few distinct displacements are each
-    # verified, and the best verified one is kept.
-    tops = []
-    for k in np.argsort(costs, kind="stable"):
-        if all(T[k] @ u < np.cos(np.radians(verify_apart_deg)) for u in tops):
-            tops.append(T[k])
-            if len(tops) == verify:
-                break
-    found = [verified(u) for u in tops]
+    def by_neighbours():
+        """The RANSAC on each meeting ray of A and its nearest in B (module docstring): the best
+        few displacements, each verified."""
+        # B's lines were ordered by A's family keys, so the two lines of a pair correspond in order
+        by_pair: dict = {}
+        for j, p in enumerate(pb):
+            by_pair.setdefault(p, []).append(j)
+        cand_i, cand_j = [], []
+        cos_max = np.cos(np.radians(max_parallax_deg))
+        for i, p in enumerate(pa):
+            js = np.array(by_pair.get(p, []), dtype=int)
+            if len(js) == 0:
+                continue
+            c = xb[js] @ ra[i]
+            order = np.argsort(-c)[:neighbours]
+            js = js[order][c[order] > cos_max]
+            cand_i += [i] * len(js)
+            cand_j += list(js)
+        if len(cand_i) < 2:
+            return []
+        ci, cj = np.array(cand_i), np.array(cand_j)
+        p_, q_ = ra[ci], xb[cj]
+        A = np.cross(p_, q_)
+        na = np.linalg.norm(A, axis=1)
+        A = A / np.maximum(na, 1e-300)[:, None]
+        rng = np.random.default_rng(seed)
+        S = rng.integers(0, len(ci), (trials, 2))
+        S = S[ci[S[:, 0]] != ci[S[:, 1]]]
+        T = np.cross(A[S[:, 0]], A[S[:, 1]])
+        nt = np.linalg.norm(T, axis=1)
+        T = T[nt > 1e-9] / nt[nt > 1e-9, None]
+        if len(T) == 0:
+            return []
+        T = np.concatenate([T, -T])
+
+        def per_crossing_cost(Ts):
+            cost, inl = _costs(A, p_, q_, Ts, thr, c2, min_parallax=3.0 * thr)  # per candidate pair
+            r2 = _residuals2(A, Ts, thr)
+            r2 = np.where(inl, r2, c2)
+            best = np.full((len(Ts), len(xa)), c2)
+            for k in range(len(Ts)):
+                np.minimum.at(best[k], ci, r2[k])
+            return best.sum(axis=1), r2
+
+        def best_pairs(t):
+            """Each meeting ray of A at its best inlier candidate in B: ``{i: candidate index}``."""
+            r2 = per_crossing_cost(t[None])[1][0]
+            best = {}
+            for k in np.nonzero(r2 < c2)[0]:
+                if ci[k] not in best or r2[k] < r2[best[ci[k]]]:
+                    best[ci[k]] = k
+            return best
+
+        costs = np.concatenate([per_crossing_cost(T[c:c + 256])[0] for c in range(0, len(T), 256)])
+
+        def verified(t):
+            """Least squares on ``t``'s inlier pairs, lines matched one to one by the votes of the
+            meeting rays, and the verified cost (below)."""
+            for _ in range(5):  # least squares on the inlier pairs
+                ks = np.array(list(best_pairs(t).values()), dtype=int)
+                if len(ks) < 2:
+                    break
+                t_new = np.linalg.eigh(A[ks].T @ A[ks])[1][:, 0]
+                t = t_new if t_new @ t >= 0 else -t_new
+            best_j = best_pairs(t)
+            votes: dict = {}
+            for i, k in best_j.items():
+                for a_line, b_line in zip(la[i], lb[cj[k]]):
+                    votes[(int(a_line), int(b_line))] = votes.get((int(a_line), int(b_line)), 0) + 1
+            pairs, used_a, used_b = [], set(), set()
+            for (a_line, b_line), v in sorted(votes.items(), key=lambda kv: -kv[1]):
+                if v < 2 or a_line in used_a or b_line in used_b:
+                    continue
+                pairs.append((a_line, b_line))
+                used_a.add(a_line)
+                used_b.add(b_line)
+            return scored(pairs, t)
+
+        # the RANSAC cost counts chance agreements of pairs of meeting rays, which the one-to-one
+        # matching of the lines removes: it can rank a wrong displacement first by a hair (a 1e-14 change
+        # of the planes swapped the two on a CI pair). So the best few distinct displacements are each
+        # verified, and the best verified one is kept.
+        tops = []
+        for k in np.argsort(costs, kind="stable"):
+            if all(T[k] @ u < np.cos(np.radians(verify_apart_deg)) for u in tops):
+                tops.append(T[k])
+                if len(tops) == verify:
+                    break
+        return [verified(u) for u in tops]
+
+    found = by_neighbours()
+    ordered = LinesInOrder(ea, eb, match, (xa, la), (xb, lb), max_lines=max_ordered_lines)
+    found += [scored(pairs, t) for pairs, t in ordered.hypotheses(thr, c2, top=verify)]
+    if not found:
+        return LineMatch([], None, float(c2 * len(xa)), 0, len(xa))
     return min(found, key=lambda m: (m.cost, -m.n_inliers))
