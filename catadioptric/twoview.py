@@ -32,6 +32,10 @@ class ImagePairPose:
     family_map: dict
     seconds: dict = field(default_factory=dict)
 
+    def to_dict(self) -> dict:
+        """JSON-ready: the fields of ``pose.json`` (:func:`image_pair_summary`)."""
+        return image_pair_summary(self)
+
 
 def _family_map(pose) -> dict:
     """The chosen answer's assignment of B's detected families to A's, from its first candidate."""
@@ -203,9 +207,9 @@ def _pose_from_detections(det_a, det_b, min_pixels, max_rotation_deg, decisive, 
 #: 60, code of d977fc6) the rotation error's Mahalanobis square against the fit's covariance had a
 #: median of 19.8 where a right covariance gives 2.37 (chi-square, 3 degrees of freedom): deviations
 #: 2.9 times too small. Checked on the whole benchmark and the held-out pairs
-#: (``tools/image_results_compare.py calibration``; docs/relative_pose.md, "The covariance of the
-#: image path"). Measured on rendered images: other images may want another scale
-#: (``covariance_scale``).
+#: (``catadioptric validate image-runs``; docs/relative_pose.md, "The covariance of the image
+#: path"; the research log, validate/NOTES.md). Measured on rendered images: other images may want
+#: another scale (``covariance_scale``).
 COVARIANCE_SCALE = 3.0
 
 #: the pose estimated again with the families found in both views at once is kept only within this
@@ -270,24 +274,40 @@ def image_pair_markdown(summary: dict, command: str) -> str:
     """A short Markdown report of :func:`image_pair_summary`'s dict."""
     from .pose import rotation_angle_deg
 
+    def known(x):
+        return x is not None and np.isfinite(x)
+
     R = np.asarray(summary["R"], float)
     lines = ["# Relative pose from two images", "", f"Command: `{command}`", ""]
     verdict = ("**ambiguous**: the best answer does not beat the next different one by the decisive margin; "
                "every candidate is in pose.json" if summary["ambiguous"] else "decisive")
-    lines += [f"- verdict: {verdict} (margin {summary['margin']:.1f})",
-              f"- rotation: {rotation_angle_deg(R):.3f} deg turn (std {summary['rotation_std_deg']:.3f} deg)"]
+    margin = summary["margin"]
+    margin = f"margin {margin:.1f}" if known(margin) else "no rival answer"
+    std = summary["rotation_std_deg"]
+    lines += [f"- verdict: {verdict} ({margin})",
+              f"- rotation: {rotation_angle_deg(R):.3f} deg turn"
+              + (f" (std {std:.3f} deg)" if known(std) else " (its deviation not estimated)")]
+    t_std = summary.get("translation_std")
     if summary["t"] is None:
         lines.append("- translation: not estimated")
     elif not summary.get("translation_observable", True):
         lines.append("- translation: zero, not observable (no parallax: the notes say why)")
-    elif summary["metric"]:
+    elif summary["metric"] and known(t_std) and t_std < np.linalg.norm(np.asarray(summary["t"], float)):
         t = np.asarray(summary["t"], float)
         lines.append(f"- translation (metres, metric): {np.round(t, 3).tolist()} (|t| = {np.linalg.norm(t):.3f} m, "
-                     f"std {summary['translation_std']:.3f} m)")
+                     f"std {t_std:.3f} m)")
+    elif summary["metric"]:
+        t = np.asarray(summary["t"], float)
+        n = np.linalg.norm(t)
+        lines.append(f"- translation direction: {np.round(t / n if n > 0 else t, 4).tolist()}; its length is not "
+                     f"observable from these images (std "
+                     + (f"{t_std:.3g} m against a length of {n:.3g} m" if known(t_std) else "not estimated") + ")")
     else:
         lines.append(f"- translation direction (central model): {np.round(np.asarray(summary['t']), 4).tolist()}")
-    lines += [(f"- lines matched in both views: {summary['lines_matched']}; pixel noise estimate "
-               f"{summary['sigma_px']:.2f} px"), "", "| family of A | family of B | sign | lines in A | lines in B |",
+    sigma = summary["sigma_px"]
+    lines += [f"- lines matched in both views: {summary['lines_matched']}"
+              + (f"; pixel noise estimate {sigma:.2f} px" if known(sigma) else ""), "",
+              "| family of A | family of B | sign | lines in A | lines in B |",
               "|---|---|---|---|---|"]
     lines += [f"| {f['family_a']} | {f['family_b']} | {f['sign']:+d} | {f['lines_a']} | {f['lines_b']} |"
               for f in summary["matched_families"]]

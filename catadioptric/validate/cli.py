@@ -69,7 +69,8 @@ def _relative_pose(args) -> int:
             f"rotation {d['rotation_error_deg']:.4f} deg (Frobenius {d['frobenius_error']:.4f})"
         tr = ""
         if d["translation_error_m"] is not None:
-            tr = f", translation {d['translation_error_m']:.3f} m"
+            tr = (f", translation {d['translation_error_m']:.3f} m" if rp.length_observable(d) else
+                  f", translation length {rp.translation_text(d)}")
         if d["translation_direction_error_deg"] is not None:
             tr += f", direction {d['translation_direction_error_deg']:.2f} deg"
         cen = ""

@@ -20,7 +20,8 @@ import numpy as np
 
 from .._checks import CatadioptricError
 
-__all__ = ["evaluate_pair", "central_approximation", "central_model_error_px", "ENDS"]
+__all__ = ["evaluate_pair", "central_approximation", "central_model_error_px", "ENDS", "length_observable",
+           "translation_text"]
 
 ENDS = ("unknown", "given")
 _UNIFIED_CACHE: dict = {}
@@ -201,18 +202,44 @@ def _evaluate_pair(dataset, names, noise_levels, draws, seed, pixels, min_pixels
     return out
 
 
+def length_observable(d: dict) -> bool:
+    """Whether a draw's metric translation has a known length: its deviation (``translation_std``,
+    metres) is finite and smaller than the length itself (docs/relative_pose.md, ``pose.json``). A
+    direction (the central model) has no length to observe."""
+    t, std = d.get("t"), d.get("translation_std")
+    if not d.get("metric") or t is None or std is None or not np.isfinite(std):
+        return False
+    return bool(std < np.linalg.norm(np.asarray(t, float)))
+
+
+def translation_text(d: dict) -> str:
+    """A draw's translation error for a reader: metres when its length is observable (a metric
+    translation whose deviation is below its length), else ``not observable`` with the deviation
+    that says so (``not known`` without a deviation); ``-`` when there is no metric translation."""
+    if d.get("translation_error_m") is None:
+        return "-"
+    if length_observable(d):
+        return f"{d['translation_error_m']:.3g}"
+    std = d.get("translation_std")
+    if std is None or not np.isfinite(std):
+        return "not known (its deviation was not estimated)"
+    return f"not observable (std {std:.3g} m, length {np.linalg.norm(np.asarray(d['t'], float)):.3g} m)"
+
+
 def pair_markdown(res: dict, command: str) -> str:
     """The Markdown summary of :func:`evaluate_pair`'s result."""
     from .report import md_table
 
     A, B = res["views"]
     rows = []
+    unobservable = False
     for d in res["draws"]:
         c = d.get("central", {})
         if "error" in d:
             rows.append([d["noise_px"], d["draw"], "failed: " + d["error"][:100], "", "", "", "", "", ""])
             continue
-        t_m = "-" if d["translation_error_m"] is None else f"{d['translation_error_m']:.3g}"
+        t_m = translation_text(d)
+        unobservable |= t_m.startswith("not observable")
         t_d = "-" if d["translation_direction_error_deg"] is None else f"{d['translation_direction_error_deg']:.3g}"
         c_r = c.get("error", "")[:60] if "error" in c else (f"{c['rotation_error_deg']:.3g}" if c else "-")
         c_t = "-" if not c or "error" in c or c["translation_direction_error_deg"] is None else \
@@ -223,9 +250,10 @@ def pair_markdown(res: dict, command: str) -> str:
                      f"{d['frobenius_error']:.3g}", t_m, t_d, c_r + (" (ambiguous)" if c.get("ambiguous") else ""),
                      c_t, s_r])
     seen = [[n, s["families"], s["lines"], s["pixels"], s["short_lines"]] for n, s in res["seen"].items()]
+    per_line = "every pixel of each line" if res["max_pixels"] is None else f"at most {res['max_pixels']} per line"
     text = [f"# Relative pose of views {A} and {B}", "",
             f"Baseline {res['baseline_m']:.2f} m; line pixels `{res['pixels']}` (lines of at least "
-            f"{res['min_pixels']} pixels, at most {res['max_pixels']} per line used); ends of the families "
+            f"{res['min_pixels']} pixels, {per_line} used); ends of the families "
             f"{'given (matched vanishing points)' if res['ends'] == 'given' else 'searched'}; "
             f"{res['families_in_both']} families seen in both views.", "",
             md_table(["view", "families", "lines", "pixels", "lines too short"], seen), "",
@@ -233,9 +261,12 @@ def pair_markdown(res: dict, command: str) -> str:
             "(non-central) model, then the central baseline (the best central approximation of the rig), then "
             "the rotation of whichever of the two claims the smaller deviation (`pose.choose_model`, the model "
             "chosen in brackets).", "",
-            md_table(["noise (px)", "draw", "rotation (deg)", "Frobenius", "translation (m)",
+            md_table(["noise (px)", "draw", "rotation (deg)", "Frobenius", "translation length error (m)",
                       "translation direction (deg)", "central rotation (deg)", "central translation direction (deg)",
                       "selected rotation (deg)"], rows), "",
+            *(["A translation whose standard deviation is larger than its length has a direction but no known "
+               "length: its length is *not observable* from these pixels (docs/relative_pose.md, \"What limits "
+               "the translation\"), and only its direction is compared.", ""] if unobservable else []),
             "The paper (Miraldo et al., CVPR 2018, Sec. 5.4) reports a Frobenius error of 0.0446 for its POV-Ray pair "
             "(non-central ellipsoidal rig, 2 px noise).", "", f"Reproduce: `{command}`", ""]
     return "\n".join(text)
@@ -273,8 +304,9 @@ def pair_figure(res: dict, dataset):
     d = [x for x in res["draws"] if "error" not in x]
     if d:
         x = d[-1]
-        fig.suptitle(f"noise {x['noise_px']} px: rotation error {x['rotation_error_deg']:.3f} deg, translation "
-                     f"direction error {x['translation_direction_error_deg'] or float('nan'):.2f} deg"
+        td = x["translation_direction_error_deg"]
+        fig.suptitle(f"noise {x['noise_px']} px: rotation error {x['rotation_error_deg']:.3f} deg"
+                     + ("" if td is None else f", translation direction error {td:.2f} deg")
                      + (" (AMBIGUOUS)" if x["ambiguous"] else ""), fontsize=10)
     fig.tight_layout()
     return fig
