@@ -11,22 +11,24 @@ _LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
 # coordinate): once the point's place along the curve is fitted, only the error across the curve is
 # left, a 1-D Gaussian, whose |e| has median 0.6745 sigma (not the 1.1774 sigma of a 2-D error: taken
 # for one, a 3.5-sigma inlier threshold cut at 2 sigma and the noise came out 12 % low)
-_HALF_NORMAL_MEDIAN = 0.6744897501960817
+HALF_NORMAL_MEDIAN = 0.6744897501960817
 # --------------------------------------------------------------------------- small helpers
-def _unit(v):
+def unit_vectors(v):
+    """``v`` divided by its norm along the last axis."""
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
-def _tangent_basis(s):
+def tangent_basis(s):
     """Two unit vectors ``e1, e2`` with ``(e1, e2, s)`` right-handed orthonormal, for unit ``s (..., 3)``."""
     s = np.asarray(s, dtype=float)
     a = np.where((np.abs(s[..., 0]) < 0.8)[..., None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
-    e1 = _unit(np.cross(a, s))
+    e1 = unit_vectors(np.cross(a, s))
     e2 = np.cross(s, e1)
     return e1, e2
 
 
-def _check_camera(cam, what: str):
+def check_camera(cam, what: str):
+    """Raise unless ``cam`` is a non-central :class:`CatadioptricCamera` (``what``: what a central one cannot fix)."""
     if not isinstance(cam, CatadioptricCamera):
         raise CatadioptricError(f"cam: expected a CatadioptricCamera, got {type(cam).__name__}")
     if cam.is_central:
@@ -38,7 +40,8 @@ def _check_camera(cam, what: str):
         )
 
 
-def _check_uv(uv, name: str, min_pixels: int = 5) -> np.ndarray:
+def check_uv(uv, name: str, min_pixels: int = 5) -> np.ndarray:
+    """The pixels ``uv`` as a float array ``(M, 2)`` with ``M >= min_pixels``, else :class:`CatadioptricError`."""
     a = as_float_array(uv, name, 2)
     if a.ndim != 2:
         raise CatadioptricError(f"{name}: expected an array of shape (M, 2), got an array of shape {a.shape}")
@@ -47,7 +50,7 @@ def _check_uv(uv, name: str, min_pixels: int = 5) -> np.ndarray:
     return a
 
 
-def _check_distinct(uv: np.ndarray, name: str, min_pixels: int = 5) -> None:
+def check_distinct(uv: np.ndarray, name: str, min_pixels: int = 5) -> None:
     """At least ``min_pixels`` different positions (to a millionth of a pixel) among the pixels
     ``uv (M, 2)`` that see the world, for a fit whose unknowns the pixels must span: copies of one
     pixel fit a line exactly and tell nothing about it."""
@@ -57,7 +60,8 @@ def _check_distinct(uv: np.ndarray, name: str, min_pixels: int = 5) -> None:
                                 f"several), got {len(uv)} pixels at {n} distinct position(s)")
 
 
-def _check_options(loss, f_scale, pixel_sigma, inlier_threshold):
+def check_options(loss, f_scale, pixel_sigma, inlier_threshold):
+    """Check the robust loss and its scales; returns ``f_scale, pixel_sigma, inlier_threshold`` as floats (or None)."""
     if loss not in _LOSSES:
         raise CatadioptricError(f"loss: expected one of {list(_LOSSES)}, got {loss!r}")
     f_scale = as_scalar(f_scale, "f_scale", positive=True)
@@ -68,7 +72,7 @@ def _check_options(loss, f_scale, pixel_sigma, inlier_threshold):
     return f_scale, pixel_sigma, inlier_threshold
 
 
-def _check_fit_options(jac, max_trials, f_scale, pixel_sigma, inlier_threshold) -> float:
+def check_fit_options(jac, max_trials, f_scale, pixel_sigma, inlier_threshold) -> float:
     """Checks shared by the fits; returns the RANSAC inlier threshold in pixels."""
     if jac not in ("analytic", "2-point", "3-point"):
         raise CatadioptricError(f"jac: expected 'analytic', '2-point' or '3-point', got {jac!r}")
@@ -79,7 +83,8 @@ def _check_fit_options(jac, max_trials, f_scale, pixel_sigma, inlier_threshold) 
     return 3.5 * pixel_sigma if pixel_sigma is not None else 3.0 * f_scale
 
 
-def _rng(seed):
+def as_rng(seed):
+    """A numpy Generator from ``seed`` (an int, None or a Generator, returned as is)."""
     if isinstance(seed, np.random.Generator):
         return seed
     if seed is None or isinstance(seed, (int, np.integer)):
@@ -87,13 +92,14 @@ def _rng(seed):
     raise CatadioptricError(f"seed: expected an int, None or a numpy Generator, got {type(seed).__name__}")
 
 
-def _scatter(ok, v, fill, M, tail=()):
+def scatter(ok, v, fill, M, tail=()):
+    """An array ``(M,) + tail`` holding ``v`` at the rows ``ok`` and ``fill`` elsewhere."""
     out = np.full((M,) + tail, fill, dtype=np.asarray(v).dtype if not isinstance(fill, float) else float)
     out[ok] = v
     return out
 
 
-def _check_min_distance(min_distance, cam) -> float:
+def check_min_distance(min_distance, cam) -> float:
     """The smallest distance of a fitted line from the rays' centre: ``min_distance`` (metres,
     >= 0), default the mirror's scale."""
     if min_distance is None:

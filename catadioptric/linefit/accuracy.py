@@ -4,10 +4,10 @@ from __future__ import annotations
 import numpy as np
 
 from .._checks import CatadioptricError
-from ._common import _unit
+from ._common import unit_vectors
 from .fits import fit_line
-from .linear import _ray_frame
-from .problem import _Problem
+from .linear import ray_frame
+from .problem import Problem
 from .synthetic import family_pixels, segment_pixels
 from .vanishing import vanishing_points_from_curves
 
@@ -40,11 +40,11 @@ def _predicted_direction_std(cam, a, b, n=100):
     uv, pts = segment_pixels(cam, a, b, n)
     if len(uv) < 0.8 * n:
         return None
-    s = _unit(b - a)
+    s = unit_vectors(b - a)
     r = cam.backproject(uv)
-    x0 = _ray_frame(cam, r.origins, r.directions).x0
+    x0 = ray_frame(cam, r.origins, r.directions).x0
     q = a - (a @ s) * s
-    pb = _Problem(cam, uv, np.zeros(len(uv), dtype=np.int64), 1, x0, s, q[None], (pts - q) @ s)
+    pb = Problem(cam, uv, np.zeros(len(uv), dtype=np.int64), 1, x0, s, q[None], (pts - q) @ s)
     C = pb.schur_cov(pb.x0(), np.ones(len(uv), dtype=bool))
     return float(np.degrees(np.sqrt(C[0, 0] + C[1, 1])))
 
@@ -76,7 +76,7 @@ def accuracy_table(*, trials: int = 40, family_seeds: int = 10, random_segments:
         for _ in range(random_segments):
             v = dirs[rng.integers(len(dirs))]
             dist = rng.uniform(0.08, 0.3)
-            s = _unit(np.cross(v, rng.normal(size=3)))
+            s = unit_vectors(np.cross(v, rng.normal(size=3)))
             half = rng.uniform(1.0, 4.0) * dist
             x = _predicted_direction_std(cam, v * dist - half * s, v * dist + half * s)
             if x is not None:
@@ -93,7 +93,7 @@ def accuracy_table(*, trials: int = 40, family_seeds: int = 10, random_segments:
         cam = preset(name)
         a, b = np.array(a), np.array(b)
         uv, _ = segment_pixels(cam, a, b, 100)
-        s = _unit(b - a)
+        s = unit_vectors(b - a)
         mid = 0.5 * (a + b)
         for sigma in sorted({unit * k for k in (0.25, 0.5, 1.0, 2.0)} | {1.0}):
             ds, ang, pos, pred = [], [], [], []

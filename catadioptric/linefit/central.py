@@ -6,7 +6,7 @@ import numpy as np
 
 from .._checks import CatadioptricError, as_float_array
 from ..cameras import CatadioptricCamera
-from ._common import _check_options, _check_uv, _rng, _scatter, _tangent_basis
+from ._common import check_options, check_uv, as_rng, scatter, tangent_basis
 from .planes import pixel_rays_with_jacobian, plane_covariance, plane_distances, refine_plane
 from .results import InterpretationPlane
 
@@ -31,7 +31,7 @@ def direction_from_planes(normals, normal_covs):
         s = s_new
         if done:
             break
-    e1, e2 = _tangent_basis(s)
+    e1, e2 = tangent_basis(s)
     E = np.stack([e1, e2], axis=1)
     A = n @ E  # (L, 2): d(n_i . s) / d(tangent coordinates)
     cov = E @ np.linalg.pinv(np.einsum("l,li,lj->ij", w, A, A)) @ E.T
@@ -67,9 +67,9 @@ def fit_interpretation_plane(cam, uv, *, f_scale: float = 1.0, ransac: bool = Tr
     if isinstance(cam, CatadioptricCamera) and not cam.is_central and not directions_only:
         raise CatadioptricError("cam: expected a central camera (cam.is_central); a non-central camera sees the "
                                 "whole line: use fit_line (or directions_only=True for the approximate plane)")
-    uv = _check_uv(uv, "uv", 3)
-    f_scale, pixel_sigma, inlier_threshold = _check_options("linear", f_scale, pixel_sigma, inlier_threshold)
-    rng = _rng(seed)
+    uv = check_uv(uv, "uv", 3)
+    f_scale, pixel_sigma, inlier_threshold = check_options("linear", f_scale, pixel_sigma, inlier_threshold)
+    rng = as_rng(seed)
     # a pixel at the edge of the mirror's image has no ray derivative (a neighbour misses the mirror)
     rays = pixel_rays_with_jacobian(cam, uv)
     valid = rays.ok
@@ -113,9 +113,9 @@ def fit_interpretation_plane(cam, uv, *, f_scale: float = 1.0, ransac: bool = Tr
     rss = float(np.sum(r[inl] ** 2))
     sigma = pixel_sigma if pixel_sigma is not None else (float(np.sqrt(rss / dof)) if dof > 0 else float("nan"))
     cov = plane_covariance(n, rays.take(inl), sigma)
-    full = _scatter(valid, r, np.inf, len(uv))
+    full = scatter(valid, r, np.inf, len(uv))
     return InterpretationPlane(normal=n, viewpoint=cam.viewpoint, normal_cov=cov,
                                rms=float(np.sqrt(np.mean(r[inl] ** 2))), distances=full,
-                               inliers=_scatter(valid, inl, False, len(uv)))
+                               inliers=scatter(valid, inl, False, len(uv)))
 
 

@@ -8,12 +8,12 @@ import numpy as np
 
 from .._checks import CatadioptricError, as_float_array
 from ..cameras import CatadioptricCamera
-from ._common import _check_uv
+from ._common import check_uv
 from .jacobian import project_with_jacobian
 
 
 # --------------------------------------------------------------------------- image distances for fixed lines
-def _closest_depths(q, s, o, d):
+def closest_depths(q, s, o, d):
     """Parameter along ``q + lambda s`` of the point closest to the ray ``o + t d``
     (broadcast; unit ``s``, ``d``)."""
     w0 = q - o
@@ -24,7 +24,7 @@ def _closest_depths(q, s, o, d):
     return (b * e - dd) / den
 
 
-def _depth_refine(cam, q, s, uv, lam, iters: int = 4, step_cap=None):
+def depth_refine(cam, q, s, uv, lam, iters: int = 4, step_cap=None):
     """Gauss-Newton on the depth of each pixel on fixed lines: ``q, s (..., 3)``, ``uv (..., 2)``,
     ``lam (...)`` broadcast together. Returns ``lam``, ``dist`` (pixels, inf where no image),
     ``uv_fit``, ``visible``."""
@@ -66,26 +66,26 @@ def image_distances(cam: CatadioptricCamera, point, direction, uv, *, iters: int
     if np.linalg.norm(s) == 0:
         raise CatadioptricError("direction: expected a non-zero vector, got zero")
     s = s / np.linalg.norm(s)
-    uv = _check_uv(uv, "uv", 1)
+    uv = check_uv(uv, "uv", 1)
     rays = cam.backproject(uv)
-    lam0 = _closest_depths(q, s, np.nan_to_num(rays.origins), np.nan_to_num(rays.directions))
-    lam, dist, _, _ = _depth_refine(cam, q, s, uv, lam0, iters)
+    lam0 = closest_depths(q, s, np.nan_to_num(rays.origins), np.nan_to_num(rays.directions))
+    lam, dist, _, _ = depth_refine(cam, q, s, uv, lam0, iters)
     dist = np.where(rays.valid, dist, np.inf)
     return dist, lam
 
 
-def _score_lines(cam, L, uv, o, d, iters=3):
+def score_lines(cam, L, uv, o, d, iters=3):
     """Image distances ``(H, M)`` of pixels to lines ``L (H, 6)`` and the depths."""
     s = L[:, :3]
     q = np.cross(s, L[:, 3:])
-    lam0 = _closest_depths(q[:, None, :], s[:, None, :], o[None], d[None])
-    lam, dist, _, _ = _depth_refine(cam, q[:, None, :], s[:, None, :], uv[None], lam0, iters)
+    lam0 = closest_depths(q[:, None, :], s[:, None, :], o[None], d[None])
+    lam, dist, _, _ = depth_refine(cam, q[:, None, :], s[:, None, :], uv[None], lam0, iters)
     return dist, lam
 
 
 # --------------------------------------------------------------------------- RANSAC
 @dataclass
-class _Pixels:
+class Pixels:
     """The pixels that see the world, their rays and the rays' derivatives by the pixel
     (``Jo``, ``Jd (M, 3, 2)``) for the linearised image distance."""
 
@@ -96,7 +96,8 @@ class _Pixels:
     Jd: np.ndarray
 
 
-def _pixels(cam, uv) -> _Pixels:
+def pixels_with_rays(cam, uv) -> Pixels:
+    """The pixels ``uv`` with their rays and the rays' derivatives (:class:`Pixels`), and the mask of valid rays."""
     rays = cam.backproject(uv)
     h = 0.25
     Jo = np.empty(uv.shape[:-1] + (3, 2))
@@ -107,17 +108,17 @@ def _pixels(cam, uv) -> _Pixels:
         rp, rm = cam.backproject(uv + e), cam.backproject(uv - e)
         Jo[..., k] = (rp.origins - rm.origins) / (2 * h)
         Jd[..., k] = (rp.directions - rm.directions) / (2 * h)
-    return _Pixels(uv, rays.origins, rays.directions, Jo, Jd), rays.valid
+    return Pixels(uv, rays.origins, rays.directions, Jo, Jd), rays.valid
 
 
-def _linear_distances(px: _Pixels, L):
+def linear_distances(px: Pixels, L):
     """First-order image distances ``(H, M)`` from pixels to lines ``L (H, 6)``: the point ``X`` of
     the line nearest each pixel's ray, at depth ``rho`` along it, is off the ray by ``dX``;
     the pixel displacement that moves the ray's point at depth ``rho`` by ``dX`` is
     ``pinv(Jo + rho Jd) dX``. Inf where ``X`` is behind the reflection point."""
     s = L[:, None, :3]
     q = np.cross(L[:, :3], L[:, 3:])[:, None, :]
-    lam = _closest_depths(q, s, px.o[None], px.d[None])
+    lam = closest_depths(q, s, px.o[None], px.d[None])
     X = q + lam[..., None] * s
     v = X - px.o[None]
     rho = np.sum(v * px.d[None], axis=-1)

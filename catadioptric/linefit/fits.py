@@ -7,19 +7,19 @@ import numpy as np
 from .._checks import CatadioptricError
 from ..cameras import CatadioptricCamera
 from ._common import (
-    _check_camera,
-    _check_distinct,
-    _check_fit_options,
-    _check_min_distance,
-    _check_options,
-    _check_uv,
-    _rng,
-    _scatter,
+    as_rng,
+    check_camera,
+    check_distinct,
+    check_fit_options,
+    check_min_distance,
+    check_options,
+    check_uv,
+    scatter,
 )
-from .distances import _closest_depths, _linear_distances
-from .linear import _moment_candidates, _ray_frame
-from .problem import _solve_family
-from .ransac import _best_linear, _initial_line, _orient, _prepare, _ransac
+from .distances import closest_depths, linear_distances
+from .linear import moment_candidates, ray_frame
+from .problem import solve_family
+from .ransac import best_linear, initial_line, msac_line, prepare_pixels
 from .results import FamilyFit, LineFit
 
 
@@ -49,22 +49,28 @@ def fit_line(cam: CatadioptricCamera, uv, *, loss: str = "soft_l1", f_scale: flo
     Raises :class:`CatadioptricError` for central cameras (the position is not observable)
     and for bad input.
     """
-    _check_camera(cam, "the line's position and direction")
-    uv = _check_uv(uv, "uv", 5)
-    f_scale, pixel_sigma, inlier_threshold = _check_options(loss, f_scale, pixel_sigma, inlier_threshold)
-    thr = _check_fit_options(jac, max_trials, f_scale, pixel_sigma, inlier_threshold)
-    dmin = _check_min_distance(min_distance, cam)
-    rng = _rng(seed)
-    ok, px = _prepare(cam, uv, "uv")
-    _check_distinct(px.uv, "uv")
-    s, q, mask, n_hyp = _initial_line(cam, px, ransac=ransac, rng=rng, thr=thr, max_trials=int(max_trials),
-                                      dmin=dmin)
-    lam0 = _closest_depths(q, s, px.o, px.d)
+    check_camera(cam, "the line's position and direction")
+    uv = check_uv(uv, "uv", 5)
+    f_scale, pixel_sigma, inlier_threshold = check_options(loss, f_scale, pixel_sigma, inlier_threshold)
+    thr = check_fit_options(jac, max_trials, f_scale, pixel_sigma, inlier_threshold)
+    dmin = check_min_distance(min_distance, cam)
+    rng = as_rng(seed)
+    ok, px = prepare_pixels(cam, uv, "uv")
+    check_distinct(px.uv, "uv")
+    s, q, mask, n_hyp = initial_line(cam, px, ransac=ransac, rng=rng, thr=thr, max_trials=int(max_trials),
+                                     dmin=dmin)
+    lam0 = closest_depths(q, s, px.o, px.d)
     owner = np.zeros(len(px.uv), dtype=np.int64)
-    r = _solve_family(cam, px.uv, px.o, px.d, owner, 1, s, q[None], lam0, loss=loss, f_scale=f_scale,
-                      pixel_sigma=pixel_sigma, inlier_threshold=inlier_threshold, jac=jac, start_mask=mask,
-                      names=["uv"], min_distance=dmin)
+    r = solve_family(cam, px.uv, px.o, px.d, owner, 1, s, q[None], lam0, loss=loss, f_scale=f_scale,
+                     pixel_sigma=pixel_sigma, inlier_threshold=inlier_threshold, jac=jac, start_mask=mask,
+                     names=["uv"], min_distance=dmin)
     return _line_result(r, ok, len(uv), n_hyp)
+
+
+def _orient(lam, inl):
+    """Flip the direction so that the first inlier's depth is below the last one's."""
+    j = np.nonzero(inl)[0]
+    return -1.0 if lam[j[-1]] < lam[j[0]] else 1.0
 
 
 def _line_result(r, ok, M, n_hyp=0, line=0, owner=None):
@@ -76,7 +82,7 @@ def _line_result(r, ok, M, n_hyp=0, line=0, owner=None):
     sign = _orient(lam, inl_v)
     s = sign * s
     lam = sign * lam
-    full = lambda v, fill, tail=(): _scatter(ok, v, fill, M, tail)
+    full = lambda v, fill, tail=(): scatter(ok, v, fill, M, tail)
     depths = full(lam, np.nan)
     points = q + depths[:, None] * s
     m = np.cross(q, s)
@@ -89,14 +95,15 @@ def _line_result(r, ok, M, n_hyp=0, line=0, owner=None):
                    pluecker_cov=C, dof=int(r["dof"]), n_hypotheses=n_hyp, nfev=int(r["nfev"]))
 
 
-def _check_sets(uv_sets):
+def check_sets(uv_sets):
+    """The pixel sets of :func:`fit_parallel_lines` checked, as a list of ``(M_i, 2)`` float arrays."""
     if isinstance(uv_sets, np.ndarray) and uv_sets.ndim == 3:
         uv_sets = list(uv_sets)
     if not isinstance(uv_sets, (list, tuple)) or len(uv_sets) == 0:
         raise CatadioptricError(
             f"uv_sets: expected a non-empty list of (M_i, 2) pixel arrays, got {type(uv_sets).__name__}"
             + (f" of length {len(uv_sets)}" if hasattr(uv_sets, "__len__") else ""))
-    return [_check_uv(u, f"uv_sets[{i}]", 5) for i, u in enumerate(uv_sets)]
+    return [check_uv(u, f"uv_sets[{i}]", 5) for i, u in enumerate(uv_sets)]
 
 
 def fit_parallel_lines(cam: CatadioptricCamera, uv_sets, *, loss: str = "soft_l1", f_scale: float = 1.0,
@@ -112,27 +119,27 @@ def fit_parallel_lines(cam: CatadioptricCamera, uv_sets, *, loss: str = "soft_l1
     the common direction) and the sets' own linear solutions, each line's moment by
     linear least squares for that direction. ``min_distance`` as in :func:`fit_line`.
     """
-    _check_camera(cam, "the lines' positions and direction")
-    sets = _check_sets(uv_sets)
-    f_scale, pixel_sigma, inlier_threshold = _check_options(loss, f_scale, pixel_sigma, inlier_threshold)
-    thr = _check_fit_options(jac, max_trials, f_scale, pixel_sigma, inlier_threshold)
-    dmin = _check_min_distance(min_distance, cam)
-    rng = _rng(seed)
-    prepared = [_prepare(cam, u, f"uv_sets[{i}]") for i, u in enumerate(sets)]
+    check_camera(cam, "the lines' positions and direction")
+    sets = check_sets(uv_sets)
+    f_scale, pixel_sigma, inlier_threshold = check_options(loss, f_scale, pixel_sigma, inlier_threshold)
+    thr = check_fit_options(jac, max_trials, f_scale, pixel_sigma, inlier_threshold)
+    dmin = check_min_distance(min_distance, cam)
+    rng = as_rng(seed)
+    prepared = [prepare_pixels(cam, u, f"uv_sets[{i}]") for i, u in enumerate(sets)]
     for i, (_, px) in enumerate(prepared):
-        _check_distinct(px.uv, f"uv_sets[{i}]")
+        check_distinct(px.uv, f"uv_sets[{i}]")
     pxs = [p[1] for p in prepared]
     o_all = np.concatenate([p.o for p in pxs])
     d_all = np.concatenate([p.d for p in pxs])
-    frame = _ray_frame(cam, o_all, d_all, dmin)
+    frame = ray_frame(cam, o_all, d_all, dmin)
     masks, own_lines = [], []
     for px in pxs:
         if ransac:
-            Lb, mk, _ = _ransac(cam, frame, px, rng, thr, int(max_trials))
+            Lb, mk, _ = msac_line(cam, frame, px, rng, thr, int(max_trials))
             if mk.sum() < 5:
                 mk = np.ones(len(px.uv), dtype=bool)
         else:
-            Lb = _best_linear(cam, frame, px)[0]
+            Lb = best_linear(cam, frame, px)[0]
             mk = np.ones(len(px.uv), dtype=bool)
         masks.append(mk)
         own_lines.append(Lb)
@@ -145,8 +152,8 @@ def fit_parallel_lines(cam: CatadioptricCamera, uv_sets, *, loss: str = "soft_l1
     for s in cands:
         lines, cost = [], 0.0
         for px, mk in zip(pxs, masks):
-            Lc = _moment_candidates(frame, s, px.o[mk], px.d[mk], cam.mirror.scale)
-            dist = _linear_distances(px, Lc)
+            Lc = moment_candidates(frame, s, px.o[mk], px.d[mk], cam.mirror.scale)
+            dist = linear_distances(px, Lc)
             c = np.sum(np.minimum(dist**2, thr**2), axis=1)
             j = int(np.argmin(c))
             lines.append(Lc[j])
@@ -157,11 +164,11 @@ def fit_parallel_lines(cam: CatadioptricCamera, uv_sets, *, loss: str = "soft_l1
     q0 = np.array([np.cross(L[:3], L[3:]) for L in lines])
     owner = np.concatenate([np.full(len(px.uv), i, dtype=np.int64) for i, px in enumerate(pxs)])
     uv_all = np.concatenate([px.uv for px in pxs])
-    lam0 = _closest_depths(q0[owner], s0, o_all, d_all)
-    r = _solve_family(cam, uv_all, o_all, d_all, owner, len(pxs), s0, q0, lam0, loss=loss, f_scale=f_scale,
-                      pixel_sigma=pixel_sigma, inlier_threshold=inlier_threshold, jac=jac,
-                      start_mask=np.concatenate(masks), x0=frame.x0, names=[f"uv_sets[{i}]" for i in range(len(pxs))],
-                      min_distance=dmin)
+    lam0 = closest_depths(q0[owner], s0, o_all, d_all)
+    r = solve_family(cam, uv_all, o_all, d_all, owner, len(pxs), s0, q0, lam0, loss=loss, f_scale=f_scale,
+                     pixel_sigma=pixel_sigma, inlier_threshold=inlier_threshold, jac=jac,
+                     start_mask=np.concatenate(masks), x0=frame.x0, names=[f"uv_sets[{i}]" for i in range(len(pxs))],
+                     min_distance=dmin)
     s, q = r["s"], r["q"]
     sign = _orient(r["lam"][owner == 0], r["inliers"][owner == 0])
     s = sign * s
@@ -170,12 +177,12 @@ def fit_parallel_lines(cam: CatadioptricCamera, uv_sets, *, loss: str = "soft_l1
     for i, (ok, _) in enumerate(prepared):
         sel = owner == i
         M = len(sets[i])
-        dep = _scatter(ok, lam[sel], np.nan, M)
+        dep = scatter(ok, lam[sel], np.nan, M)
         depths.append(dep)
         pts.append(q[i] + dep[:, None] * s)
-        uvf.append(_scatter(ok, r["uv_fit"][sel], np.nan, M, (2,)))
-        dists.append(_scatter(ok, r["dist"][sel], np.inf, M))
-        inls.append(_scatter(ok, r["inliers"][sel], False, M))
+        uvf.append(scatter(ok, r["uv_fit"][sel], np.nan, M, (2,)))
+        dists.append(scatter(ok, r["dist"][sel], np.inf, M))
+        inls.append(scatter(ok, r["inliers"][sel], False, M))
         rms_l.append(float(np.sqrt(np.mean(r["dist"][sel][r["inliers"][sel]] ** 2))))
     rms = float(np.sqrt(np.mean(r["dist"][r["inliers"]] ** 2)))
     return FamilyFit(direction=s, moments=np.cross(q, s), points=q, depths=depths, line_points=pts, uv_fit=uvf,

@@ -8,7 +8,7 @@ import numpy as np
 
 from .._checks import CatadioptricError
 from ..cameras import CatadioptricCamera
-from ._common import _check_camera, _check_uv, _tangent_basis
+from ._common import check_camera, check_uv, tangent_basis
 
 
 # --------------------------------------------------------------------------- linear solver
@@ -25,7 +25,7 @@ class _RayFrame:
     dmin: float = 0.0
 
 
-def _pushed_out(frame: _RayFrame, L) -> np.ndarray:
+def pushed_out(frame: _RayFrame, L) -> np.ndarray:
     """The lines ``L (n, 6)`` (unit ``s``) moved, where closer than ``frame.dmin`` to ``x0``, away from it
     to that distance (same direction). A line through the point where a near-central rig's
     reflected rays nearly meet meets every ray and fits any pixels: no candidate starts there."""
@@ -37,7 +37,7 @@ def _pushed_out(frame: _RayFrame, L) -> np.ndarray:
     close = dist < frame.dmin
     if not close.any():
         return L
-    fallback = _tangent_basis(s[close])[0]
+    fallback = tangent_basis(s[close])[0]
     u = np.where((dist[close] > 1e-12 * frame.dmin)[:, None], foot[close] / np.maximum(dist[close], 1e-300)[:, None],
                  fallback)
     q = frame.x0 + frame.dmin * u
@@ -46,7 +46,8 @@ def _pushed_out(frame: _RayFrame, L) -> np.ndarray:
     return out
 
 
-def _ray_frame(cam, o, d, dmin: float = 0.0) -> _RayFrame:
+def ray_frame(cam, o, d, dmin: float = 0.0) -> _RayFrame:
+    """The rays ``o, d`` in a normalised frame centred on the point nearest all of them (see :class:`_RayFrame`)."""
     proj = np.eye(3) - d[:, :, None] * d[:, None, :]
     A = proj.sum(axis=0)
     b = np.einsum("nij,nj->i", proj, o)
@@ -62,7 +63,7 @@ def _ray_frame(cam, o, d, dmin: float = 0.0) -> _RayFrame:
     return _RayFrame(o, d, x0, eps, float(dmin))
 
 
-def _candidates_from_rays(frame: _RayFrame, o, d):
+def candidates_from_rays(frame: _RayFrame, o, d):
     """Candidate lines ``(s, m)`` meeting rays ``o, d (S, k, 3)`` (k >= 4); returns ``L (S, 3, 6)``
     (unit s, Pluecker exact) and ``ok (S, 3)``. Candidates: the two real roots of the
     Pluecker quadratic on the span of the two smallest right singular vectors (or its
@@ -104,7 +105,7 @@ def _candidates_from_rays(frame: _RayFrame, o, d):
     return L, ok
 
 
-def _plane_candidates(frame: _RayFrame, o, d, n_angles: int, default_distance: float):
+def plane_candidates(frame: _RayFrame, o, d, n_angles: int, default_distance: float):
     """Near-central candidates for rays ``o, d (S, k, 3)`` (k >= 2): the lines in the plane through
     ``x0`` that holds the rays' directions best, with ``n_angles`` directions spread over
     the range that keeps every ray on one side (a line seen from ``x0`` spans 180 degrees)
@@ -112,7 +113,7 @@ def _plane_candidates(frame: _RayFrame, o, d, n_angles: int, default_distance: f
     is not positive). Returns ``L (S, n_angles, 6)`` and ``ok``."""
     _, _, Vt = np.linalg.svd(d, full_matrices=d.shape[-2] < 3)
     n = Vt[:, -1, :]
-    a, b = _tangent_basis(n)
+    a, b = tangent_basis(n)
     th = np.arctan2(np.einsum("skj,sj->sk", d, b), np.einsum("skj,sj->sk", d, a))
     ths = np.sort(th, axis=1)
     gaps = np.diff(np.concatenate([ths, ths[:, :1] + 2 * np.pi], axis=1), axis=1)
@@ -141,12 +142,12 @@ def _plane_candidates(frame: _RayFrame, o, d, n_angles: int, default_distance: f
     return L, ok
 
 
-def _all_candidates(cam, frame, o, d, n_angles=8):
+def all_candidates(cam, frame, o, d, n_angles=8):
     """Every candidate from one set of rays ``(k, 3)``: ``(n, 6)``."""
-    L1, ok1 = _candidates_from_rays(frame, o[None], d[None])
-    L2, ok2 = _plane_candidates(frame, o[None], d[None], n_angles, 10.0 * cam.mirror.scale)
+    L1, ok1 = candidates_from_rays(frame, o[None], d[None])
+    L2, ok2 = plane_candidates(frame, o[None], d[None], n_angles, 10.0 * cam.mirror.scale)
     L = np.concatenate([L1[0][ok1[0]], L2[0][ok2[0]]])
-    return _pushed_out(frame, L)
+    return pushed_out(frame, L)
 
 
 def line_candidates(cam: CatadioptricCamera, uv) -> np.ndarray:
@@ -157,23 +158,23 @@ def line_candidates(cam: CatadioptricCamera, uv) -> np.ndarray:
     through the rays' centre that holds the rays). The true line is among them for exact
     pixels; with noise they are starting points. Pixels that do not see the world are
     ignored."""
-    _check_camera(cam, "the line")
-    uv = _check_uv(uv, "uv", 4)
+    check_camera(cam, "the line")
+    uv = check_uv(uv, "uv", 4)
     rays = cam.backproject(uv)
     if int(rays.valid.sum()) < 4:
         raise CatadioptricError(f"uv: expected at least 4 pixels that see the world, got {int(rays.valid.sum())}")
     o, d = rays.origins[rays.valid], rays.directions[rays.valid]
-    fr = _ray_frame(cam, o, d)
-    return _all_candidates(cam, fr, o, d)
+    fr = ray_frame(cam, o, d)
+    return all_candidates(cam, fr, o, d)
 
 
-def _moment_candidates(frame, s, o, d, scale):
+def moment_candidates(frame, s, o, d, scale):
     """Lines along a fixed unit direction ``s`` that meet rays ``o, d (k, 3)``: the linear
     least-squares moment (``m . s = 0``, ``s . (o_j x d_j) + d_j . m = 0``; good for strongly
     non-central rays) and lines in the plane through ``x0`` that holds the rays, at the
     least-squares offset and at 3, 10 and 30 times the mirror ``scale`` (a near-central
     camera hardly sees the offset). Returns ``(n, 6)``."""
-    e1, e2 = _tangent_basis(s)
+    e1, e2 = tangent_basis(s)
     Mom = np.cross(o - frame.x0, d)
     A = np.stack([d @ e1, d @ e2], axis=-1)
     rhs = -(Mom @ s)
@@ -193,6 +194,6 @@ def _moment_candidates(frame, s, o, d, scale):
         hs.append(h)
     for h in hs:
         out.append(np.concatenate([s, np.cross(frame.x0 + h * u, s)]))
-    return _pushed_out(frame, np.array(out))
+    return pushed_out(frame, np.array(out))
 
 

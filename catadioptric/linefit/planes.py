@@ -27,8 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._common import _tangent_basis
-from .distances import _pixels
+from ._common import tangent_basis
+from .distances import pixels_with_rays
 
 __all__ = ["Rays", "pixel_rays_with_jacobian", "plane_distances", "refine_plane", "plane_covariance"]
 
@@ -52,7 +52,7 @@ def pixel_rays_with_jacobian(cam, uv: np.ndarray) -> Rays:
     uv = np.asarray(uv, dtype=float).reshape(-1, 2)
     if len(uv) == 0:
         return Rays(uv, np.zeros((0, 3)), np.zeros((0, 3, 2)), np.zeros(0, bool))
-    px, valid = _pixels(cam, uv)
+    px, valid = pixels_with_rays(cam, uv)
     ok = valid & np.all(np.isfinite(px.Jd), axis=(1, 2)) & np.all(np.isfinite(px.d), axis=1)
     d = np.where(ok[:, None], px.d, 0.0)
     Jd = np.where(ok[:, None, None], px.Jd, 0.0)
@@ -97,7 +97,7 @@ def plane_covariance(n: np.ndarray, rays: Rays, sigma: float) -> np.ndarray:
     ``sigma``: ``E (A^T A)^-1 E^T sigma^2`` with rows ``A_j = (d_j . E) / |Jd_j^T n|``, ``E`` a basis
     of the tangent plane of ``n``."""
     d, Jd = rays.d[rays.ok], rays.Jd[rays.ok]
-    e1, e2 = _tangent_basis(n)
+    e1, e2 = tangent_basis(n)
     E = np.stack([e1, e2], axis=1)
     w = 1.0 / np.maximum(np.linalg.norm(np.einsum("mki,k->mi", Jd, n), axis=-1), 1e-300)
     A = (d @ E) * w[:, None]

@@ -7,14 +7,14 @@ import scipy.sparse as sp
 from scipy.optimize import least_squares
 
 from .._checks import CatadioptricError
-from ._common import _HALF_NORMAL_MEDIAN, _tangent_basis, _unit
-from .distances import _closest_depths, _depth_refine
+from ._common import HALF_NORMAL_MEDIAN, tangent_basis, unit_vectors
+from .distances import closest_depths, depth_refine
 from .jacobian import project_with_jacobian
-from .linear import _ray_frame
+from .linear import ray_frame
 
 
 # --------------------------------------------------------------------------- the joint least-squares problem
-class _Problem:
+class Problem:
     """Lines sharing one direction, in inverse-distance coordinates about a centre ``x0`` (the
     point nearest all rays). Unknowns ``x = [a, b, (alpha_i, rho_i) per line, mu_j per pixel]``:
 
@@ -36,8 +36,8 @@ class _Problem:
         self.owner = owner
         self.L = n_lines
         self.x0c = np.asarray(x0, dtype=float)
-        self.s0 = _unit(np.asarray(s0, dtype=float))
-        self.e1, self.e2 = _tangent_basis(self.s0)
+        self.s0 = unit_vectors(np.asarray(s0, dtype=float))
+        self.e1, self.e2 = tangent_basis(self.s0)
         q0 = np.asarray(q0, dtype=float).reshape(n_lines, 3)
         v = q0 - self.x0c
         along = v @ self.s0
@@ -177,8 +177,8 @@ def _canonical(s, q, lam, owner):
     return q - t[:, None] * s, lam + t[owner]
 
 
-def _solve_family(cam, uv_all, o, d, owner, n_lines, s0, q0, lam0, *, loss, f_scale, pixel_sigma,
-                  inlier_threshold, jac="analytic", start_mask=None, x0=None, names=None, min_distance=0.0):
+def solve_family(cam, uv_all, o, d, owner, n_lines, s0, q0, lam0, *, loss, f_scale, pixel_sigma,
+                 inlier_threshold, jac="analytic", start_mask=None, x0=None, names=None, min_distance=0.0):
     """Robust fit, inlier classification, least-squares polish on the inliers, covariance.
 
     ``uv_all (N, 2)`` pixels that see the world, ``o, d (N, 3)`` their rays, ``owner (N,)``
@@ -194,17 +194,17 @@ def _solve_family(cam, uv_all, o, d, owner, n_lines, s0, q0, lam0, *, loss, f_sc
     N = len(uv_all)
     use = np.ones(N, dtype=bool) if start_mask is None else np.asarray(start_mask, dtype=bool).copy()
     nfev = 0
-    s = _unit(np.asarray(s0, dtype=float))
+    s = unit_vectors(np.asarray(s0, dtype=float))
     q = np.asarray(q0, dtype=float).reshape(n_lines, 3)
     lam = np.asarray(lam0, dtype=float).copy()
-    xc = _ray_frame(cam, o, d).x0 if x0 is None else np.asarray(x0, dtype=float)
+    xc = ray_frame(cam, o, d).x0 if x0 is None else np.asarray(x0, dtype=float)
 
     def solve(mask, loss_, s, q, lam):
-        pb = _Problem(cam, uv_all[mask], owner[mask], n_lines, xc, s, q, lam[mask], rho_max)
+        pb = Problem(cam, uv_all[mask], owner[mask], n_lines, xc, s, q, lam[mask], rho_max)
         x = pb.solve(loss_, f_scale, jac)
         s, q, lam_m, _ = pb.unpack(x)
         q, lam_m = _canonical(s, q, lam_m, owner[mask])
-        lam = _closest_depths(q[owner], s, o, d)
+        lam = closest_depths(q[owner], s, o, d)
         lam[mask] = lam_m
         return s, q, lam, pb.nfev
 
@@ -216,14 +216,14 @@ def _solve_family(cam, uv_all, o, d, owner, n_lines, s0, q0, lam0, *, loss, f_sc
         rest = ~solved
         if rest.any():
             lam = lam.copy()
-            lam[rest], _, uvp[rest], vis[rest] = _depth_refine(cam, q[owner[rest]], s, uv_all[rest], lam[rest],
-                                                               iters=2)
+            lam[rest], _, uvp[rest], vis[rest] = depth_refine(cam, q[owner[rest]], s, uv_all[rest], lam[rest],
+                                                              iters=2)
         dist = np.linalg.norm(uvp - uv_all, axis=-1)
         dist = np.where(np.isfinite(dist), dist, np.inf)
         thr = inlier_threshold
         if thr is None:
             d_in = dist[solved & np.isfinite(dist)]
-            sig = float(np.median(d_in) / _HALF_NORMAL_MEDIAN) if len(d_in) else f_scale
+            sig = float(np.median(d_in) / HALF_NORMAL_MEDIAN) if len(d_in) else f_scale
             thr = 3.5 * pixel_sigma if pixel_sigma is not None else 3.0 * max(f_scale, 1.2 * sig)
         new = dist <= thr
         for i in range(n_lines):
@@ -246,7 +246,7 @@ def _solve_family(cam, uv_all, o, d, owner, n_lines, s0, q0, lam0, *, loss, f_sc
         polished = np.array_equal(new, inl)
         inl = new  # after the last round: the inliers of the final state
     # the chart re-centred at the solution (parameters zero) for the covariance
-    pb = _Problem(cam, uv_all[inl], owner[inl], n_lines, xc, s, q, lam[inl], rho_max)
+    pb = Problem(cam, uv_all[inl], owner[inl], n_lines, xc, s, q, lam[inl], rho_max)
     x = pb.x0()
     e = (uvp - uv_all)[inl]
     cov_unit = pb.schur_cov(x, np.ones(pb.N, dtype=bool))

@@ -64,7 +64,7 @@ class FamilyFit:
     ``rms_per_line (L,)``; ``sigma`` as in :class:`LineFit`; ``pluecker_cov (L, 6, 6)`` of each
     line's ``(s, m)``; ``cov`` is the covariance of the (2 + 2 L) parameters of the fit (the
     direction's tangent coordinates, then each line's angle and inverse distance about
-    the rays' centre, see ``_Problem``) after the Schur complement over the depths;
+    the rays' centre, see ``Problem``) after the Schur complement over the depths;
     ``dof`` = inliers - 2 - 2 L. The direction is oriented as line 0's first inlier to its
     last one."""
 

@@ -5,7 +5,7 @@ import numpy as np
 
 from .._checks import CatadioptricError, as_float_array, as_scalar
 from ..cameras import CatadioptricCamera
-from ._common import _rng
+from ._common import as_rng
 
 
 # --------------------------------------------------------------------------- synthetic data
@@ -42,7 +42,7 @@ def segment_pixels(cam: CatadioptricCamera, a, b, n: int, *, sigma: float = 0.0,
     uv = np.array(uv).reshape(-1, 2)
     pts = np.array(pts).reshape(-1, 3)
     if sigma > 0 and len(uv):
-        uv = uv + _rng(rng).normal(0.0, sigma, uv.shape)
+        uv = uv + as_rng(rng).normal(0.0, sigma, uv.shape)
     return uv, pts
 
 

@@ -6,9 +6,9 @@ import numpy as np
 
 from .._checks import CatadioptricError
 from ..cameras import CatadioptricCamera
-from ._common import _tangent_basis, _unit
+from ._common import tangent_basis, unit_vectors
 from .central import direction_from_planes, fit_interpretation_plane
-from .fits import _check_sets, fit_line, fit_parallel_lines
+from .fits import check_sets, fit_line, fit_parallel_lines
 from .results import CurveVanishingPoints
 
 
@@ -74,12 +74,12 @@ def _vps_with_cov(cam, s, direction_cov):
     vp = cam.vanishing_points(s, which="both")
     uv, sign, vis = vp.uv, vp.sign.astype(int), vp.visible
     # propagate the direction covariance: d uv / d (tangent coordinates) by central differences
-    e1, e2 = _tangent_basis(s)
+    e1, e2 = tangent_basis(s)
     h = 1e-6
     J = np.full(uv.shape + (2,), np.nan)
     for c, e in enumerate((e1, e2)):
-        vpp = cam.vanishing_points(_unit(s + h * e), which="both")
-        vpm = cam.vanishing_points(_unit(s - h * e), which="both")
+        vpp = cam.vanishing_points(unit_vectors(s + h * e), which="both")
+        vpm = cam.vanishing_points(unit_vectors(s - h * e), which="both")
         up = _match_vps(uv, sign, vis, vpp.uv, vpp.sign, vpp.visible)
         um = _match_vps(uv, sign, vis, vpm.uv, vpm.sign, vpm.visible)
         J[:, :, c] = (up - um) / (2 * h)
@@ -108,7 +108,7 @@ def _central_vanishing_points(cam, uv_sets, **options):
     them; each pair of curves meets at the vanishing points of the pair's own direction."""
     allowed = {"f_scale", "ransac", "seed", "pixel_sigma", "inlier_threshold", "max_trials"}
     opts = {k: v for k, v in options.items() if k in allowed}
-    sets = _check_sets(uv_sets)
+    sets = check_sets(uv_sets)
     if len(sets) < 2:
         raise CatadioptricError(f"uv_sets: a central camera needs at least 2 curves (one gives only a plane), "
                                 f"got {len(sets)}")

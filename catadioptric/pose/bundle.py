@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._checks import CatadioptricError
-from ..linefit._common import _HALF_NORMAL_MEDIAN
+from ..linefit._common import HALF_NORMAL_MEDIAN
 from ._kernels import reduced_normal_equations
 from .meetings import check_corners
 from .two_view_problem import _MU_MAX, _Problem
@@ -308,7 +308,7 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     if pixel_sigma is not None:
         noise = pixel_sigma
     else:
-        sig = float(np.median(dist[fin]) / _HALF_NORMAL_MEDIAN) if fin.any() else sigma_cost
+        sig = float(np.median(dist[fin]) / HALF_NORMAL_MEDIAN) if fin.any() else sigma_cost
         noise = max(sig, 1e-9 * sigma_cost)
     # the meetings' deviations follow the pixels' noise where it is below the robust stage's scale
     # (exact pixels: the rays that passed stage 1's threshold without meeting are then outliers)

@@ -49,7 +49,7 @@ def scale_by_search(va, vb, lines, dirs, R, t_dir, offset, sigma, n_pixels=12):
     index, uv_A, uv_B)``; ``dirs``: the families' directions in A. A near-central rig hardly tells
     the lengths apart: the search then ends at a bound of its range, and
     :func:`refine_far_or_free` decides whether the pixels fix the scale."""
-    from ..linefit.distances import _closest_depths, _depth_refine
+    from ..linefit.distances import closest_depths, depth_refine
 
     def few(uv):
         return uv[np.unique(np.round(np.linspace(0, len(uv) - 1, min(n_pixels, len(uv)))).astype(int))]
@@ -77,8 +77,8 @@ def scale_by_search(va, vb, lines, dirs, R, t_dir, offset, sigma, n_pixels=12):
         for cam, uv, q, s in ((va.cam, uv_a, np.concatenate(qa), np.concatenate(sa)),
                               (vb.cam, uv_b, np.concatenate(qb), np.concatenate(sb))):
             r = cam.backproject(uv)
-            lam0 = _closest_depths(q, s, np.nan_to_num(r.origins), np.nan_to_num(r.directions))
-            _, dist, _, _ = _depth_refine(cam, q, s, uv, lam0, iters=2)
+            lam0 = closest_depths(q, s, np.nan_to_num(r.origins), np.nan_to_num(r.directions))
+            _, dist, _, _ = depth_refine(cam, q, s, uv, lam0, iters=2)
             total += float(np.sum(np.minimum(np.where(np.isfinite(dist), dist, np.inf) ** 2, cap)))
         return total
 
@@ -217,7 +217,7 @@ def far_start(cam_a, cam_b, R, t, points, *, centres, far: float = FAR):
 def pixel_distances(fit: TwoViewFit, cam_a, cam_b, uv_a, owner_a, uv_b, owner_b) -> np.ndarray:
     """Every pixel's distance to the image of its line in a two-view fit, ``(M_A + M_B,)`` (A's
     pixels, then B's; inf where the line has no image near the pixel)."""
-    from ..linefit.distances import _closest_depths, _depth_refine
+    from ..linefit.distances import closest_depths, depth_refine
 
     s = fit.directions[fit.line_family]
     out = []
@@ -226,8 +226,8 @@ def pixel_distances(fit: TwoViewFit, cam_a, cam_b, uv_a, owner_a, uv_b, owner_b)
         own = np.asarray(own, int).reshape(-1)
         q, d = fit.points[own] @ R.T + t, s[own] @ R.T
         r = cam.backproject(uv)
-        lam0 = _closest_depths(q, d, np.nan_to_num(r.origins), np.nan_to_num(r.directions))
-        _, dist, _, _ = _depth_refine(cam, q, d, uv, lam0, iters=5)
+        lam0 = closest_depths(q, d, np.nan_to_num(r.origins), np.nan_to_num(r.directions))
+        _, dist, _, _ = depth_refine(cam, q, d, uv, lam0, iters=5)
         out.append(np.where(r.valid & np.isfinite(dist), dist, np.inf))
     return np.concatenate(out)
 

@@ -9,7 +9,7 @@ import numpy as np
 
 from .._io import atomic_write_bytes, atomic_write_json, jsonable
 from .report import md_table
-from ..linefit._common import _HALF_NORMAL_MEDIAN
+from ..linefit._common import HALF_NORMAL_MEDIAN as _HALF_NORMAL_MEDIAN
 from .benchmark_spec import quality_text
 
 __all__ = ["aggregate", "aggregate_images", "write_benchmark_report", "write_images_report", "benchmark_markdown",
@@ -342,13 +342,20 @@ def benchmark_markdown(spec: dict, agg: dict, results: list, command: str, timin
     L += ["## Failed, ambiguous and wrong draws", ""]
     L += [md_table(["configuration", "pair", "renderer", "noise (px)", "draw", "model", "what", "detail"], issues)
           if issues else "None.", ""]
-    L += ["## Time", "", f"Rendering {timing.get('render_seconds', float('nan')):.0f} s (resumed views are not "
-          f"counted again), evaluation {timing.get('evaluate_seconds', float('nan')):.0f} s in this run; per pair "
+    L += ["## Time", "", f"Rendering {_seconds(timing, 'render_seconds')} (resumed views are not "
+          f"counted again), evaluation {_seconds(timing, 'evaluate_seconds')} in this run; per pair "
           "(all noise levels and draws, both models): "
           + ", ".join(f"{n} {_fmt(a['seconds_per_pair'], 3)} s" for n, a in agg.items()) + ".", "",
           "Plots: `rotation.png` (rotation error against noise), `translation.png` (translation error).", "",
           f"Reproduce: `{command}`", "", code_line(results, "label path"), ""]
     return "\n".join(L)
+
+
+def _seconds(timing: dict, key: str) -> str:
+    """A run's wall time for the report, ``not measured`` when the timing does not hold it (a report
+    written again from stored results, with no earlier report to take it from)."""
+    x = timing.get(key)
+    return "not measured" if x is None or not np.isfinite(x) else f"{x:.0f} s"
 
 
 def code_line(results: list, what: str) -> str:
@@ -583,7 +590,7 @@ def write_images_report(spec: dict, image_results: list, out: str, *, command: s
     md = "\n".join([f"# Relative-pose benchmark `{spec['name']}`: the images alone", "",
                      f"Spec: `{spec.get('source', spec['name'])}` (seed {spec['seed']}, {spec['pairs']} pairs per "
                      f"configuration, {spec['resolution']}, quality {quality_text(spec)}). Per-pair results computed "
-                     f"in {timing.get('images_seconds', float('nan')):.0f} s (pairs already computed with the same "
+                     f"in {_seconds(timing, 'images_seconds')} (pairs already computed with the same "
                      "code are read back).", "", f"Reproduce: `{command}`", "", code_line(image_results, "image path"),
                      "",
                      images_markdown(spec, agg_im, shown, labels=False)])
