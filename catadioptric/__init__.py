@@ -2,8 +2,9 @@
 
 ``import catadioptric`` loads numpy and scipy only; rendering, scenes, plots and
 experiments live in subpackages that load their heavy dependencies lazily. The
-submodules below (``catadioptric.rigs``, ``.unified``, ``.export``, ...) and
-``catadioptric.Dataset`` are imported on first use.
+submodules below (``catadioptric.rigs``, ``.unified``, ``.export``, ...), ``catadioptric.Dataset``,
+``load_camera`` and the main jobs' front doors (``detect_lines``, ``relative_pose``,
+``relative_pose_from_labels``: :mod:`catadioptric.jobs`) are imported on first use.
 """
 import importlib as _importlib
 
@@ -25,12 +26,17 @@ __all__ = [
     "backproject",
     "project",
     "Dataset",
+    "load_camera",
+    "detect_lines",
+    "relative_pose",
+    "relative_pose_from_labels",
 ]
 
 # imported on first attribute access, so that ``import catadioptric`` stays light
 _SUBMODULES = ("rigs", "rigspec", "unified", "centrality", "vanishing", "lines", "curves", "linefit", "pose",
-               "export", "dataset", "scenes", "render", "validate")
-_ATTRIBUTES = {"Dataset": "dataset"}
+               "export", "dataset", "scenes", "render", "validate", "models", "formats", "detect", "twoview", "jobs")
+_ATTRIBUTES = {"Dataset": "dataset", "load_camera": "formats", "detect_lines": "jobs", "relative_pose": "jobs",
+               "relative_pose_from_labels": "jobs"}
 
 
 def __getattr__(name):
