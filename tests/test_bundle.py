@@ -76,7 +76,7 @@ def test_lines_stay_outside_the_mirror():
     """A line's distance from c_A never falls below twice the mirror's size, at the start or after
     any step: a line started (or pushed) inside the mirror would have points that reflect nowhere
     and pixels without a gradient."""
-    from catadioptric.pose.two_view_problem import _Problem
+    from catadioptric.pose.two_view_problem import Problem
     from catadioptric.rigs import preset
 
     cam = preset("hyperboloid")
@@ -86,7 +86,7 @@ def test_lines_stay_outside_the_mirror():
     uv = np.full((6, 2), 100.0)
     owner = np.array([0, 0, 0, 1, 1, 1])
     view = np.array([0, 0, 1, 0, 1, 1])
-    pb = _Problem(cam, cam, s, points, [0, 0], uv, owner, view, (c, c), np.eye(3), np.array([3.0, 0.0, 0.0]))
+    pb = Problem(cam, cam, s, points, [0, 0], uv, owner, view, (c, c), np.eye(3), np.array([3.0, 0.0, 0.0]))
     d_min = 2.0 * cam.mirror.scale
     y = pb.start()
     dist = lambda y: np.exp(y[5]) / y[7 + 2 * pb.F::2]  # each line's distance from c_A
@@ -102,7 +102,7 @@ def test_lines_stay_outside_the_mirror():
 def _line_at_the_mirror():
     """A problem with line 0 on its bound (1 cm from c_A, held at twice the mirror's size) and
     line 1 free (4 m away)."""
-    from catadioptric.pose.two_view_problem import _Problem
+    from catadioptric.pose.two_view_problem import Problem
     from catadioptric.rigs import preset
 
     cam = preset("hyperboloid")
@@ -111,8 +111,8 @@ def _line_at_the_mirror():
     uv = np.full((40, 2), 100.0)
     owner = np.repeat([0, 1], 20)
     view = np.tile(np.repeat([0, 1], 10), 2)
-    return _Problem(cam, cam, np.array([[1.0, 0.0, 0.0]]), points, [0, 0], uv, owner, view, (c, c), np.eye(3),
-                    np.array([3.0, 0.0, 0.0]))
+    return Problem(cam, cam, np.array([[1.0, 0.0, 0.0]]), points, [0, 0], uv, owner, view, (c, c), np.eye(3),
+                   np.array([3.0, 0.0, 0.0]))
 
 
 def test_a_step_against_a_bound_is_the_step_on_the_bound():
@@ -154,10 +154,10 @@ def test_a_step_against_a_bound_is_the_step_on_the_bound():
 
 
 def test_a_depth_at_its_limit_is_held():
-    """A pixel whose depth is at +-_MU_MAX (its point at a vanishing point) and whose step would
+    """A pixel whose depth is at +-MU_MAX (its point at a vanishing point) and whose step would
     take it further keeps its depth; the step is that of the system without its depth."""
     from catadioptric.pose.bundle import _normal_equations, _solve_step
-    from catadioptric.pose.two_view_problem import _MU_MAX
+    from catadioptric.pose.two_view_problem import MU_MAX
 
     pb = _line_at_the_mirror()
     y = pb.start()
@@ -170,7 +170,7 @@ def test_a_depth_at_its_limit_is_held():
         e = rng.normal(size=(pb.N, 2))
         w = np.ones(pb.N)
         mu = np.zeros(pb.N)
-        mu[2] = _MU_MAX
+        mu[2] = MU_MAX
         S, g, Hym, gm, Hmm_d = _normal_equations(pb, A, b, e, w, 0.0)
         dmu_free = -(gm + np.sum(Hym * np.linalg.solve(S, -g)[pb.cols], axis=1)) / Hmm_d
         dy, dmu = _solve_step(pb, A, b, e, w, 0.0, y, mu)
@@ -192,7 +192,7 @@ def test_a_trial_is_judged_at_its_depths_re_solved():
     line: without the step the residuals stay (pixels along the curve); with it what is left is
     the step's second-order error, a quarter as large when the push is halved."""
     from catadioptric.pose.bundle import _trial
-    from catadioptric.pose.two_view_problem import _Problem
+    from catadioptric.pose.two_view_problem import Problem
     from catadioptric.rigs import preset
 
     cam = preset("hyperboloid")
@@ -205,8 +205,8 @@ def test_a_trial_is_judged_at_its_depths_re_solved():
     keep = pr.valid[i, k]
     uv = pr.uv[i, k][keep]
     c = np.zeros(3)
-    pb = _Problem(cam, cam, s[None], q[None], [0], uv, np.zeros(len(uv), int), np.zeros(len(uv), int), (c, c),
-                  np.eye(3), np.array([3.0, 0.0, 0.0]))
+    pb = Problem(cam, cam, s[None], q[None], [0], uv, np.zeros(len(uv), int), np.zeros(len(uv), int), (c, c),
+                 np.eye(3), np.array([3.0, 0.0, 0.0]))
     y = pb.start()
     mu_true = lam[keep] / np.linalg.norm(q)  # the tangent of each point's angle from the perpendicular
     e0, _ = pb.residuals(np.eye(3), y, mu_true)
@@ -225,8 +225,8 @@ def test_a_trial_is_judged_at_its_depths_re_solved():
 
 
 def test_the_depth_column_is_the_jacobians():
-    """``_Problem.depth_column`` is the depth column of ``_Problem.jacobian``, in both views."""
-    from catadioptric.pose.two_view_problem import _Problem
+    """``Problem.depth_column`` is the depth column of ``Problem.jacobian``, in both views."""
+    from catadioptric.pose.two_view_problem import Problem
     from catadioptric.pose.rotation import exp_rotation
     from catadioptric.rigs import preset
 
@@ -236,7 +236,7 @@ def test_the_depth_column_is_the_jacobians():
     mu = np.linspace(-0.5, 0.5, 12)
     view = np.repeat([0, 1], 6)
     c = np.zeros(3)
-    pb = _Problem(cam, cam, s[None], q[None], [0], np.full((12, 2), 300.0), np.zeros(12, int), view, (c, c), R, t)
+    pb = Problem(cam, cam, s[None], q[None], [0], np.full((12, 2), 300.0), np.zeros(12, int), view, (c, c), R, t)
     y = pb.start()
     _, state = pb.residuals(R, y, mu)
     _, b = pb.jacobian(R, y, mu, state)

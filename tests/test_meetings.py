@@ -4,7 +4,7 @@ Jacobian agrees with finite differences of the residual itself."""
 import numpy as np
 import pytest
 
-from catadioptric.pose.two_view_problem import _Problem
+from catadioptric.pose.two_view_problem import Problem
 from catadioptric.pose.meetings import _transversal_residual
 from catadioptric.pose.rotation import exp_rotation
 from catadioptric.rigspec import load_rig
@@ -42,9 +42,9 @@ def test_the_jacobian_is_the_residual_s_derivative(seed):
     fam = np.array([0, 1, 2, 0, 1, 2])
     uv = rng.uniform(50, 200, (12, 2))
     R = exp_rotation(rng.normal(size=3) * 0.3)
-    pb = _Problem(cam, cam, dirs, pts, fam, uv, np.repeat(np.arange(6), 2), np.tile([0, 1], 6),
-                  (np.zeros(3), np.zeros(3)), R, np.array([1.0, 0.2, 0.1]),
-                  corners=[[0, 1], [1, 2], [3, 5], [4, 0]], corner_sigma=[0.01, 0.02, 0.01, 0.03])
+    pb = Problem(cam, cam, dirs, pts, fam, uv, np.repeat(np.arange(6), 2), np.tile([0, 1], 6),
+                 (np.zeros(3), np.zeros(3)), R, np.array([1.0, 0.2, 0.1]),
+                 corners=[[0, 1], [1, 2], [3, 5], [4, 0]], corner_sigma=[0.01, 0.02, 0.01, 0.03])
     y = pb.start() + rng.normal(size=pb.ny) * 0.05
     r, J = pb.corner_terms(R, y)
     Jn = np.zeros_like(J)

@@ -187,13 +187,13 @@ def test_errors_name_their_cause():
 def test_a_model_error_is_an_error_every_pixel_of_a_line_shares():
     """``model_error_px`` adds ``(e * rad_per_px)^2 (I - n n')`` to each plane's normal covariance,
     however many pixels the line has, and the family's direction is no longer trusted beyond it."""
-    from catadioptric.pose.central import _rad_per_px
+    from catadioptric.pose.central import rad_per_px
     from catadioptric.pose.families import fit_view_families
 
     va, _, _, _ = _pair("hyperboloid_central")
     e0, _ = fit_view_families(va)
     e1, _ = fit_view_families(va, model_error_px=0.5)
-    eps = 0.5 * _rad_per_px(va.cam)
+    eps = 0.5 * rad_per_px(va.cam)
     for k in e0:
         n = e0[k].normals
         added = eps**2 * (np.eye(3) - n[:, :, None] * n[:, None, :])

@@ -18,7 +18,7 @@ from .._checks import CatadioptricError
 from ..linefit._common import HALF_NORMAL_MEDIAN
 from ._kernels import reduced_normal_equations
 from .meetings import check_corners
-from .two_view_problem import _MU_MAX, _Problem
+from .two_view_problem import MU_MAX, Problem
 
 __all__ = ["TwoViewFit", "refine_two_view"]
 
@@ -108,9 +108,9 @@ def _damped_solve(S, g, lam):
 
 def _solve_step(pb, A, b, e, w, lam, y, mu, hold_scale=False, extra=(None, None)):
     """The damped Gauss-Newton step ``(dy, dmu)``. Unknowns that the step pushes against their
-    bounds (:meth:`~catadioptric.pose.two_view_problem._Problem.pushed_bounds`; a depth at ``+-_MU_MAX`` pushed outwards) are held on
+    bounds (:meth:`~catadioptric.pose.two_view_problem.Problem.pushed_bounds`; a depth at ``+-MU_MAX`` pushed outwards) are held on
     them and the step solved again, until it pushes against no other: moved across and clipped
-    back by :meth:`~catadioptric.pose.two_view_problem._Problem.apply`, they would leave the rest of the step inconsistent, and
+    back by :meth:`~catadioptric.pose.two_view_problem.Problem.apply`, they would leave the rest of the step inconsistent, and
     Levenberg-Marquardt would crawl. ``hold_scale``: the scene's scale (``sigma``) is held from
     the start."""
     Sc, gc = extra
@@ -125,7 +125,7 @@ def _solve_step(pb, A, b, e, w, lam, y, mu, hold_scale=False, extra=(None, None)
     for _ in range(8):
         upper, lower, scale = pb.pushed_bounds(y, dy)
         held2 = (held[0] | upper, held[1] | lower, held[2] or scale)
-        stuck2 = stuck | ((np.abs(mu) >= _MU_MAX * (1 - 1e-12)) & (dmu * mu > 0))
+        stuck2 = stuck | ((np.abs(mu) >= MU_MAX * (1 - 1e-12)) & (dmu * mu > 0))
         if all(np.array_equal(p, q) for p, q in zip(held, held2)) and np.array_equal(stuck, stuck2):
             break
         if not np.array_equal(stuck, stuck2):  # a depth held: no depth column for its pixel
@@ -141,12 +141,12 @@ def _solve_step(pb, A, b, e, w, lam, y, mu, hold_scale=False, extra=(None, None)
 
 def _depth_step(mu, e, b):
     """Each pixel's depth after one Gauss-Newton step on it alone (residuals ``e``, depth column
-    ``b``), moved at most by its own size plus one and kept within ``+-_MU_MAX``."""
+    ``b``), moved at most by its own size plus one and kept within ``+-MU_MAX``."""
     bb = np.sum(b * b, axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         dmu = np.where(bb > 0, -np.sum(b * np.nan_to_num(e), axis=1) / bb, 0.0)
     cap = np.abs(mu) + 1.0
-    return np.clip(mu + np.clip(dmu, -cap, cap), -_MU_MAX, _MU_MAX)
+    return np.clip(mu + np.clip(dmu, -cap, cap), -MU_MAX, MU_MAX)
 
 
 def _settle_depths(pb, R, y, mu):
@@ -160,7 +160,7 @@ def _settle_depths(pb, R, y, mu):
 
 
 def _trial(pb, R, y, mu, settle):
-    """A trial state's residuals and the state :meth:`~catadioptric.pose.two_view_problem._Problem.jacobian` needs, ``(mu, e, state)``.
+    """A trial state's residuals and the state :meth:`~catadioptric.pose.two_view_problem.Problem.jacobian` needs, ``(mu, e, state)``.
     With ``settle``, each pixel's depth is first moved by one Gauss-Newton step on its own
     (:func:`_depth_step`) at the trial's other unknowns: the joint step moves each depth only as
     far as its linearisation says, and the linearisation is poor (the image of a point moves along
@@ -252,7 +252,7 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     (:func:`~catadioptric.pose.central.translation_direction_from_crossings`), each with the
     deviation ``corner_sigma (K,)`` of its epipolar residual there: the rays from each view's
     centre that meet both lines must lie in one plane with the baseline
-    (:meth:`~catadioptric.pose.two_view_problem._Problem.corner_terms`), robust in the first stage, kept in the polish while within
+    (:meth:`~catadioptric.pose.two_view_problem.Problem.corner_terms`), robust in the first stage, kept in the polish while within
     ``inlier_sigmas`` of deviations that follow the pixels' noise (exact pixels: rays that passed
     stage 1's threshold without their lines meeting are then left out). The lines alone tell a
     near-central rig's translation direction poorly; on the benchmark's first 20 hyperbolic pairs
@@ -281,8 +281,8 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
         centres = (_rays_centre(cam_a, uv_a), _rays_centre(cam_b, uv_b))
     corners, corner_sigma = check_corners(corners, corner_sigma, np.asarray(line_family, int).reshape(-1))
     R = np.asarray(R0, float)
-    pb = _Problem(cam_a, cam_b, np.asarray(dirs0, float), np.asarray(points0, float), line_family, uv, owner, view,
-                  centres, R, t0, warm_start, corners, corner_sigma)
+    pb = Problem(cam_a, cam_b, np.asarray(dirs0, float), np.asarray(points0, float), line_family, uv, owner, view,
+                 centres, R, t0, warm_start, corners, corner_sigma)
     y = pb.start()
     # starting depths: each pixel's ray closest to its line (B's rays moved into A)
     s, _, _, rho, u, _, _, k = pb.parts(y)
@@ -296,7 +296,7 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     w0 = ql - rays_o
     bb = np.sum(sl * rays_d, 1)
     lam0 = (bb * np.sum(rays_d * w0, 1) - np.sum(sl * w0, 1)) / np.maximum(1 - bb * bb, 1e-12)
-    mu = np.clip(lam0 * rho[owner] / k, -_MU_MAX, _MU_MAX)
+    mu = np.clip(lam0 * rho[owner] / k, -MU_MAX, MU_MAX)
     mask = np.ones(len(uv), dtype=bool)
     R, y, mu, cost, it1 = _lm(pb, R, y, mu, sigma_cost, c2, robust, mask, max_iter, tol_chi2, settle_depths,
                               hold_scale)

@@ -29,7 +29,8 @@ import numpy as np
 from .rotation import skew
 
 __all__ = ["MeetingRays", "meeting_rays", "CrossingFit", "translation_direction_from_crossings", "Parallax", "parallax",
-           "PARALLAX_P", "Twins", "rotation_twins", "rotation_twins_any_family"]
+           "PARALLAX_P", "Twins", "rotation_twins", "rotation_twins_any_family",
+           "rad_per_px", "sides", "meeting", "translation_costs", "residuals2", "residual_weights"]
 
 
 @dataclass
@@ -52,7 +53,7 @@ class CrossingFit:
     inliers: np.ndarray | None = None
 
 
-def _rad_per_px(cam) -> float:
+def rad_per_px(cam) -> float:
     """Median angle between the rays of neighbouring pixels (radians per pixel)."""
     pin = getattr(cam, "pinhole", None)
     w, h = (pin.width, pin.height) if pin is not None else (cam.width or 640, cam.height or 480)
@@ -84,7 +85,7 @@ class MeetingRays:
     pairs: list | None = None
 
 
-def _sides(view, est):
+def sides(view, est):
     """Per line of a family: unit ``u`` in its plane, normal to its direction, on the side its
     pixels are seen (a line's image is the half of its great circle around ``u``)."""
     s = est.direction
@@ -98,7 +99,7 @@ def _sides(view, est):
     return u
 
 
-def _meeting(n_i, u_i, n_j, u_j):
+def meeting(n_i, u_i, n_j, u_j):
     """The oriented rays where the planes of lines i and j meet on the seen half of both (NaN rows
     where they do not)."""
     x = np.cross(n_i, n_j)
@@ -127,7 +128,7 @@ def meeting_rays(view_a, view_b, ea, eb, keys) -> MeetingRays | None:
     for view, est, side in ((view_a, ea, "A"), (view_b, eb, "B")):
         for key in keys:
             e = est[key]
-            u = _sides(view, e)
+            u = sides(view, e)
             C = e.normal_covs if e.normal_covs is not None else np.full((len(e.lines), 3, 3), np.nan)
             for k, i in enumerate(e.lines):
                 lid = view.line_id[i]
@@ -147,8 +148,8 @@ def meeting_rays(view_a, view_b, ea, eb, keys) -> MeetingRays | None:
     i, j = np.triu_indices(len(matched), 1)
     keep = fam[i] != fam[j]
     i, j = i[keep], j[keep]
-    xa = _meeting(nA[i], uA[i], nA[j], uA[j])
-    xb = _meeting(nB[i], uB[i], nB[j], uB[j])
+    xa = meeting(nA[i], uA[i], nA[j], uA[j])
+    xb = meeting(nB[i], uB[i], nB[j], uB[j])
     ok = np.all(np.isfinite(xa), 1) & np.all(np.isfinite(xb), 1)
     if ok.sum() < 2:
         return None
@@ -157,7 +158,7 @@ def meeting_rays(view_a, view_b, ea, eb, keys) -> MeetingRays | None:
     cov_b = _meeting_cov(xb, nB[i], CB[i], nB[j], CB[j])
     has_cov = bool(np.all(np.isfinite(cov_a)) and np.all(np.isfinite(cov_b)))
     ids = [m[0][0] for m in matched]
-    return MeetingRays(xa, xb, len(matched), max(_rad_per_px(view_a.cam), _rad_per_px(view_b.cam)),
+    return MeetingRays(xa, xb, len(matched), max(rad_per_px(view_a.cam), rad_per_px(view_b.cam)),
                        cov_a if has_cov else None, cov_b if has_cov else None,
                        [(ids[a], ids[b]) for a, b in zip(i, j)])
 
@@ -191,16 +192,16 @@ def _cheirality_violation(p, q, T):
     return np.where(same, np.maximum(th_q - th_p, 0.0), np.minimum(th_p + th_q, 2 * np.pi - th_p - th_q))
 
 
-def _costs(A, p, q, T, thr, c2, W=None, ang=None, min_parallax=None):
+def translation_costs(A, p, q, T, thr, c2, W=None, ang=None, min_parallax=None):
     """Truncated cost ``(H,)`` and inlier masks ``(H, K)`` of translations ``T (H, 3)``: a meeting ray is
     an inlier when it is within ``thr`` of its epipolar plane and within ``thr`` of meeting in
     front of both centres (:func:`_cheirality_violation`). With ``W (K, 3, 3)`` and ``ang (K,)``
-    (:func:`_residual_weights`), each ray has its own: the residual's variance ``T' W_k T`` and
+    (:func:`residual_weights`), each ray has its own: the residual's variance ``T' W_k T`` and
     three times ``ang_k`` for the cheirality. ``min_parallax`` (radians): instead, the depths'
     signs decide, and rays more nearly parallel than this are exempt (the rule of the matching
     of detected lines, pose/matching.py, whose meeting points carry offsets their fits do not
     know of)."""
-    r2 = _residuals2(A, T, thr, W)
+    r2 = residuals2(A, T, thr, W)
     if min_parallax is None:
         ahead = _cheirality_violation(p, q, T) <= (thr if W is None else 3.0 * ang)
     else:
@@ -210,16 +211,16 @@ def _costs(A, p, q, T, thr, c2, W=None, ang=None, min_parallax=None):
     return np.sum(np.where(inl, r2, c2), axis=1), inl
 
 
-def _residuals2(A, T, thr, W=None):
+def residuals2(A, T, thr, W=None):
     """Squared epipolar residuals ``(H, K)`` of meeting rays (normals ``A (K, 3)`` of their epipolar
     planes) for translations ``T (H, 3)``, in units of their standard deviation: ``thr / 3`` for
-    all, or ``sqrt(T' W_k T)`` per ray (:func:`_residual_weights`)."""
+    all, or ``sqrt(T' W_k T)`` per ray (:func:`residual_weights`)."""
     if W is None:
         return (T @ A.T) ** 2 / (thr / 3.0) ** 2
     return (T @ A.T) ** 2 / np.einsum("hi,kij,hj->hk", T, W, T)
 
 
-def _residual_weights(p, q, cov_p, cov_q, floor):
+def residual_weights(p, q, cov_p, cov_q, floor):
     """Per meeting ray, ``W (K, 3, 3)`` such that the variance of its epipolar residual
     ``r = T . unit(p x q)`` is ``T' W T`` (first order in the rays' covariances ``cov_p``,
     ``cov_q``; ``floor``: an angle added in quadrature, for what the fits' covariances leave
@@ -255,7 +256,7 @@ def translation_direction_from_crossings(rays: MeetingRays | None, R, *, sigma_p
     thr = 3.0 * max(0.5, 0.5 * sigma_px) * np.sqrt(2.0) * rays.rad_per_px
     W = ang = None
     if rays.cov_a is not None:
-        W, ang = _residual_weights(p, q, R @ rays.cov_a @ R.T, rays.cov_b, 0.1 * thr / 3.0)
+        W, ang = residual_weights(p, q, R @ rays.cov_a @ R.T, rays.cov_b, 0.1 * thr / 3.0)
     rng = np.random.default_rng(seed)
     idx = np.flatnonzero(use)
     P = np.array([rng.choice(idx, 2, replace=False) for _ in range(trials)]) if len(idx) > 2 else idx[None]
@@ -265,7 +266,7 @@ def translation_direction_from_crossings(rays: MeetingRays | None, R, *, sigma_p
     if len(T) == 0:
         return None
     T = np.concatenate([T, -T])  # the sign is a hypothesis too (the depths decide)
-    cost, _ = _costs(A, p, q, T, thr, c2, W, ang)
+    cost, _ = translation_costs(A, p, q, T, thr, c2, W, ang)
     t = T[int(np.argmin(cost))]
     # least squares on the inliers, keeping the side; the inlier test then follows the inliers' own
     # spread, never looser than at the start (pairs of lines that do not meet but pass close, or
@@ -273,10 +274,10 @@ def translation_direction_from_crossings(rays: MeetingRays | None, R, *, sigma_p
     shrink = 1.0
     for _ in range(8):
         if W is None:
-            _, inl = _costs(A, p, q, t[None], thr * shrink, c2)
+            _, inl = translation_costs(A, p, q, t[None], thr * shrink, c2)
             wk = np.ones(len(A))
         else:
-            _, inl = _costs(A, p, q, t[None], thr, c2, W * shrink**2, ang)
+            _, inl = translation_costs(A, p, q, t[None], thr, c2, W * shrink**2, ang)
             wk = 1.0 / np.einsum("i,kij,j->k", t, W, t)
         if inl[0].sum() < 2:
             break
@@ -285,7 +286,7 @@ def translation_direction_from_crossings(rays: MeetingRays | None, R, *, sigma_p
         t = t_new if t_new @ t >= 0 else -t_new
         z = np.abs(A[inl[0]] @ t) * np.sqrt(wk[inl[0]]) * (1.0 if W is not None else 3.0 / thr)
         shrink = min(1.0, max(1.4826 * float(np.median(z)), 1e-12))
-    cost, inl = _costs(A, p, q, t[None], thr, c2, W, ang)
+    cost, inl = translation_costs(A, p, q, t[None], thr, c2, W, ang)
     inl = inl[0]
     wk = (3.0 / thr) ** 2 * np.ones(len(A)) if W is None else 1.0 / np.einsum("i,kij,j->k", t, W, t)
     e1 = np.cross(t, [1.0, 0.0, 0.0] if abs(t[0]) < 0.8 else [0.0, 1.0, 0.0])

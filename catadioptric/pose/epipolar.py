@@ -15,7 +15,7 @@ of evidence are minimised together:
 with ``W_f`` the information of the direction pair (their covariances, as in
 :func:`~catadioptric.pose.rotation.refine_rotation`), ``v_k`` the variance of the k-th
 epipolar residual (propagated from its two planes' fits in each view,
-:func:`~catadioptric.pose.central._residual_weights`), ``rho`` the Cauchy loss, over the
+:func:`~catadioptric.pose.central.residual_weights`), ``rho`` the Cauchy loss, over the
 inliers that stage 1 found. Both terms come from the same fitted planes (a family's direction
 from its lines' planes, a meeting ray from two of them), so the covariance treats as
 independent what is not: it is a first-order estimate, checked against the errors on the
@@ -28,8 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._checks import CatadioptricError
-from .central import CrossingFit, MeetingRays, _residual_weights
-from .rotation import _information, exp_rotation, skew
+from .central import CrossingFit, MeetingRays, residual_weights
+from .rotation import exp_rotation, information, skew
 
 __all__ = ["EpipolarFit", "refine_with_crossings"]
 
@@ -78,11 +78,11 @@ def refine_with_crossings(a, b, cov_a, cov_b, rays: MeetingRays, crossing: Cross
 
     def terms(R, t):
         Ra = a @ R.T
-        Wd = _information(b, Cb + R @ Ca @ R.T)
+        Wd = information(b, Cb + R @ Ca @ R.T)
         rd = b - Ra
         chi_d = np.maximum(np.einsum("ni,nij,nj->n", rd, Wd, rd), 0.0)
         p = xa @ R.T
-        W, _ = _residual_weights(p, xb, R @ cov_ra @ R.T, cov_rb, floor)
+        W, _ = residual_weights(p, xb, R @ cov_ra @ R.T, cov_rb, floor)
         v = np.einsum("i,kij,j->k", t, W, t)
         c = np.cross(p, xb)
         return Ra, Wd, rd, chi_d, p, v, c, c @ t

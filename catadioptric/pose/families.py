@@ -186,9 +186,9 @@ def fit_view_families(view: ViewLines, *, keys=None, seed=0, f_scale: float = 1.
     centre = rays_centre(view.cam)
     model_error_rad = 0.0
     if model_error_px:
-        from .central import _rad_per_px
+        from .central import rad_per_px
 
-        model_error_rad = float(model_error_px) * _rad_per_px(view.cam)
+        model_error_rad = float(model_error_px) * rad_per_px(view.cam)
     for key in (fams if keys is None else [k for k in keys if k in fams]):
         idx = fams[key]
         picks = [_spread(len(view.uv[i]), max_pixels) for i in idx]

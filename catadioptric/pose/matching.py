@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .central import _costs, _meeting, _rad_per_px, _residuals2, _sides
+from .central import meeting, rad_per_px, residuals2, sides, translation_costs
 from .rotation import refine_rotation, rotation_angle_deg, rotation_from_directions
 
 __all__ = ["FamilyMatch", "family_matches", "LineMatch", "LinesInOrder", "match_lines"]
@@ -157,7 +157,7 @@ def _crossings(view, est: dict, fam_of: dict):
     for key, e in est.items():
         if key not in fam_of:
             continue
-        u = _sides(view, e)
+        u = sides(view, e)
         for k, i in enumerate(e.lines):
             rows.append((fam_of[key], i, e.normals[k], u[k]))
     rows.sort(key=lambda r: str(r[0]))
@@ -169,7 +169,7 @@ def _crossings(view, est: dict, fam_of: dict):
     i, j = np.triu_indices(len(rows), 1)
     keep = np.array([fam[a] != fam[b] for a, b in zip(i, j)], dtype=bool)
     i, j = i[keep], j[keep]
-    x = _meeting(n[i], u[i], n[j], u[j])
+    x = meeting(n[i], u[i], n[j], u[j])
     ok = np.all(np.isfinite(x), axis=1)
     i, j, x = i[ok], j[ok], x[ok]
     lines = np.array([[rows[a][1], rows[b][1]] for a, b in zip(i, j)], dtype=int).reshape(-1, 2)
@@ -281,8 +281,8 @@ class LinesInOrder:
             P, Q = self.ra[kA[ok]], self.xb[kB[ok]]
             Av = np.cross(P, Q)
             Av /= np.maximum(np.linalg.norm(Av, axis=1), 1e-300)[:, None]
-            _, inl = _costs(Av, P, Q, t[None], thr, c2, min_parallax=3.0 * thr)
-            out[ok] = np.where(inl[0], _residuals2(Av, t[None], thr)[0], c2)
+            _, inl = translation_costs(Av, P, Q, t[None], thr, c2, min_parallax=3.0 * thr)
+            out[ok] = np.where(inl[0], residuals2(Av, t[None], thr)[0], c2)
         return out
 
     def _fit(self, kA, kB, thr, c2, rounds: int = 3):
@@ -299,7 +299,7 @@ class LinesInOrder:
                 break
             u = np.linalg.eigh(Av[use].T @ Av[use])[1][:, 0]
             T = np.stack([u, -u])
-            costs, inl = _costs(Av, P, Q, T, thr, c2, min_parallax=3.0 * thr)
+            costs, inl = translation_costs(Av, P, Q, T, thr, c2, min_parallax=3.0 * thr)
             h = int(np.argmin(costs))
             t, cost, use = T[h], float(costs[h]) + c2 * (len(self.xa) - len(kA)), inl[h]
         return t, cost
@@ -393,7 +393,7 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
     if len(xa) < 2 or len(xb) < 2:
         return LineMatch([], None, float(c2 * len(xa)), 0, len(xa))
     ra = xa @ R.T
-    rpp = max(_rad_per_px(view_a.cam), _rad_per_px(view_b.cam))
+    rpp = max(rad_per_px(view_a.cam), rad_per_px(view_b.cam))
     thr = 3.0 * max(0.5, 0.5 * sigma_px) * np.sqrt(2.0) * rpp
     b_cross = {(int(l1), int(l2)): j for j, (l1, l2) in enumerate(lb)}
 
@@ -414,8 +414,8 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
             P, Q = ra[vi], xb[vj]
             Av = np.cross(P, Q)
             Av /= np.maximum(np.linalg.norm(Av, axis=1), 1e-300)[:, None]
-            _, inl = _costs(Av, P, Q, t[None], thr, c2, min_parallax=3.0 * thr)
-            r2 = _residuals2(Av, t[None], thr)[0]
+            _, inl = translation_costs(Av, P, Q, t[None], thr, c2, min_parallax=3.0 * thr)
+            r2 = residuals2(Av, t[None], thr)[0]
             ok = inl[0]
             n_ok = int(ok.sum())
             cost_v = float(np.sum(r2[ok]) + c2 * (len(xa) - n_ok))
@@ -457,8 +457,8 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
         T = np.concatenate([T, -T])
 
         def per_crossing_cost(Ts):
-            cost, inl = _costs(A, p_, q_, Ts, thr, c2, min_parallax=3.0 * thr)  # per candidate pair
-            r2 = _residuals2(A, Ts, thr)
+            cost, inl = translation_costs(A, p_, q_, Ts, thr, c2, min_parallax=3.0 * thr)  # per candidate pair
+            r2 = residuals2(A, Ts, thr)
             r2 = np.where(inl, r2, c2)
             best = np.full((len(Ts), len(xa)), c2)
             for k in range(len(Ts)):

@@ -30,7 +30,7 @@ import numpy as np
 
 from .._checks import CatadioptricError, as_scalar
 from .bundle import TwoViewFit
-from .central import (CrossingFit, Parallax, _residual_weights, meeting_rays, parallax, rotation_twins,
+from .central import (CrossingFit, Parallax, meeting_rays, parallax, residual_weights, rotation_twins,
                       translation_direction_from_crossings)
 from .epipolar import refine_with_crossings
 from .families import FamilyEstimate, ViewLines, fit_view_families, is_central
@@ -191,8 +191,8 @@ def _corners(meeting, crossing, R, t_dir, lines, va, ea):
         return None, None
     index = {va.line_id[ea[key].lines[ka]]: li for li, (key, ka, kb) in enumerate(lines)
              if ka is not None and kb is not None}
-    W, _ = _residual_weights(meeting.xa @ R.T, meeting.xb, R @ meeting.cov_a @ R.T, meeting.cov_b,
-                             0.1 * crossing.threshold_rad / 3.0)
+    W, _ = residual_weights(meeting.xa @ R.T, meeting.xb, R @ meeting.cov_a @ R.T, meeting.cov_b,
+                            0.1 * crossing.threshold_rad / 3.0)
     sd = np.sqrt(np.einsum("i,kij,j->k", t_dir, W, t_dir))
     pairs, sig = [], []
     for k in np.flatnonzero(crossing.inliers):

@@ -15,7 +15,7 @@ from scipy.spatial.transform import Rotation
 from .._checks import CatadioptricError, as_float_array, as_rotation
 
 __all__ = ["rotation_from_directions", "rotation_angle_deg", "DirectionRotation", "refine_rotation",
-           "exp_rotation", "skew"]
+           "exp_rotation", "skew", "information"]
 
 
 def skew(v) -> np.ndarray:
@@ -105,7 +105,7 @@ class DirectionRotation:
     cost: float
 
 
-def _information(b, C):
+def information(b, C):
     """Weight matrices ``(N, 3, 3)``: pseudo-inverse of ``C_i`` on the plane normal to ``b_i``."""
     P = np.eye(3) - b[:, :, None] * b[:, None, :]
     Cp = P @ C @ P
@@ -140,7 +140,7 @@ def refine_rotation(a, b, cov_a, cov_b, R0=None, *, robust: bool = True, c2: flo
     rw = np.ones(len(a))
     for _ in range(iters):
         Ra = a @ R.T
-        W = _information(b, Cb + R @ Ca @ R.T)
+        W = information(b, Cb + R @ Ca @ R.T)
         r = b - Ra
         chi2 = np.einsum("ni,nij,nj->n", r, W, r)
         rw = 1.0 / (1.0 + chi2 / c2) if robust else np.ones(len(a))
@@ -155,7 +155,7 @@ def refine_rotation(a, b, cov_a, cov_b, R0=None, *, robust: bool = True, c2: flo
         if np.linalg.norm(dw) < 1e-13:
             break
     Ra = a @ R.T
-    W = _information(b, Cb + R @ Ca @ R.T)
+    W = information(b, Cb + R @ Ca @ R.T)
     r = b - Ra
     chi2 = np.einsum("ni,nij,nj->n", r, W, r)
     rw = 1.0 / (1.0 + chi2 / c2) if robust else np.ones(len(a))

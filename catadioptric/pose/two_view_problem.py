@@ -22,9 +22,9 @@ from ..linefit.jacobian import image_jacobian, project_with_jacobian
 from .meetings import meeting_terms
 from .rotation import exp_rotation, skew
 
-__all__: list[str] = []  # internal to the two-view refinement
+__all__ = ["Problem", "MU_MAX"]  # used by the two-view refinement (pose.bundle)
 
-_MU_MAX = 1e3  # depths beyond 89.94 degrees from a line's perpendicular are at its vanishing points
+MU_MAX = 1e3  # depths beyond 89.94 degrees from a line's perpendicular are at its vanishing points
 
 
 def _basis(s):
@@ -34,7 +34,7 @@ def _basis(s):
     return e1, np.cross(s, e1)
 
 
-class _Problem:
+class Problem:
     """The unknowns ``y = [w (3), tau (2), sigma (1), (a_f, b_f) per family, (alpha_l, rho~_l) per
     line]`` and one depth ``mu_j`` per pixel (module docstring). The translation between the two
     views' centres is ``t'' = exp(sigma) t^`` (``t^ = unit(t0^ + tau_1 f1 + tau_2 f2)``), so that
@@ -223,7 +223,7 @@ class _Problem:
         # an outlier pixel's nearest curve point can lie at a vanishing point, and its depth must
         # not run off to infinity on the way there
         cap = np.abs(mu) + 1.0
-        mu2 = np.clip(mu + np.clip(dmu, -cap, cap), -_MU_MAX, _MU_MAX)
+        mu2 = np.clip(mu + np.clip(dmu, -cap, cap), -MU_MAX, MU_MAX)
         R2 = exp_rotation(dy[:3]) @ R
         y2 = y + dy
         y2[:3] = 0.0
