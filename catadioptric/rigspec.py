@@ -39,7 +39,7 @@ from ._checks import CatadioptricError
 from ._data import data_names, data_path
 from .cameras import CatadioptricCamera, PinholeCamera, look_at_rotation
 from .mirrors import QuadricMirror
-from .spectable import REQUIRED, SpecTable, _show, read_spec_file
+from .spectable import REQUIRED, SpecTable, read_spec_file, show
 
 __all__ = [
     "RIG_DIR",
@@ -253,7 +253,7 @@ def load_rig_spec(path_or_name, *, base_dir=None) -> dict:
             raise CatadioptricError(f"path_or_name: no rig spec file at {str(p)!r}")
         return read_rig_spec(read_spec_file(p), path="rig")
     if not isinstance(path_or_name, str):
-        raise CatadioptricError(f"path_or_name: expected a file path or a rig name, got {_show(path_or_name)}")
+        raise CatadioptricError(f"path_or_name: expected a file path or a rig name, got {show(path_or_name)}")
     p = find_rig_file(path_or_name)
     if p is not None:
         return read_rig_spec(read_spec_file(p), path="rig")

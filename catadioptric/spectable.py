@@ -16,7 +16,7 @@ from pathlib import Path
 
 from ._checks import CatadioptricError
 
-__all__ = ["REQUIRED", "SpecTable", "read_spec_file"]
+__all__ = ["REQUIRED", "SpecTable", "read_spec_file", "show"]
 
 
 class _Required:
@@ -28,7 +28,7 @@ class _Required:
 REQUIRED = _Required()
 
 
-def _show(value, limit: int = 80) -> str:
+def show(value, limit: int = 80) -> str:
     """A short description of a parsed value for an error message."""
     if isinstance(value, Mapping):
         return "a table"
@@ -78,7 +78,7 @@ class SpecTable:
 
     def __init__(self, data, path: str):
         if not isinstance(data, Mapping):
-            raise CatadioptricError(f"{path}: expected a table, got {_show(data)}")
+            raise CatadioptricError(f"{path}: expected a table, got {show(data)}")
         self._data = dict(data)
         self.path = path
         self._out: dict = {}
@@ -111,7 +111,7 @@ class SpecTable:
         return default, False
 
     def _fail(self, key: str, what: str, value):
-        raise self.error(key, f"expected {what}, got {_show(value)}")
+        raise self.error(key, f"expected {what}, got {show(value)}")
 
     def _store(self, key, value):
         if value is not None:
@@ -280,7 +280,7 @@ class SpecTable:
             if name not in names:
                 raise self.error(f"{key}.{name}", f"unknown key; expected one of {', '.join(names)}")
             if not _is_number(w) or not math.isfinite(w) or w < 0:
-                raise self.error(f"{key}.{name}", f"expected a weight >= 0, got {_show(w)}")
+                raise self.error(f"{key}.{name}", f"expected a weight >= 0, got {show(w)}")
         if not any(w > 0 for w in v.values()):
             self._fail(key, what, dict(v))
         return self._store(key, {name: float(v[name]) for name in names if name in v})
@@ -343,5 +343,5 @@ def read_spec_file(path) -> dict:
     except (tomllib.TOMLDecodeError, json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise CatadioptricError(f"path: {str(p)!r} is not a valid {p.suffix.lstrip('.').upper() or 'TOML'} file: {exc}") from None
     if not isinstance(data, dict):
-        raise CatadioptricError(f"path: {str(p)!r} must hold a table at its top level, got {_show(data)}")
+        raise CatadioptricError(f"path: {str(p)!r} must hold a table at its top level, got {show(data)}")
     return data

@@ -118,7 +118,7 @@ def _one_view(lines, f, free):
     """Family ``f`` in one view as the detector's vote sees it at best: the log NFA of the free lines
     that agree with its direction (whatever their family: the vote cannot tell) among ``free`` lines
     (at least those), and whether it keeps enough lines to assign."""
-    from catadioptric.detect.families import _log_nfa
+    from catadioptric.detect.families import log_nfa as _log_nfa
 
     vote = [ln for ln in lines if f in ln["agrees"] and ln["free"]]
     eps = np.minimum([ln["bands"][f] for ln in vote], 1.0)
@@ -152,7 +152,7 @@ def _vote(lines, label, pool):
 
 def significance(per_view, label) -> dict:
     """Whether each label family could be significant to the vote (module docstring, "Significance")."""
-    from catadioptric.detect.families import _log_nfa
+    from catadioptric.detect.families import log_nfa as _log_nfa
 
     out = {}
     for pool in ("own", "seq"):

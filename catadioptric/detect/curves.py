@@ -30,7 +30,7 @@ import numpy as np
 
 from ..linefit.planes import Rays, plane_covariance, plane_distances, refine_plane
 
-__all__ = ["LinePiece", "split_chain", "merge_pieces"]
+__all__ = ["LinePiece", "split_chain", "merge_pieces", "concat_rays"]
 
 
 @dataclass
@@ -135,13 +135,14 @@ def split_chain(uv: np.ndarray, rays: Rays, *, threshold: float = 1.0, min_point
     return pieces
 
 
-def _concat_rays(parts: list[Rays]) -> Rays:
+def concat_rays(parts: list[Rays]) -> Rays:
+    """The rays of several pieces joined into one :class:`Rays`, in order."""
     return Rays(*(np.concatenate([getattr(p, f) for p in parts]) for f in ("uv", "d", "Jd", "ok")))
 
 
 def _joint(p: LinePiece, q: LinePiece, threshold: float):
     """The plane of two pieces together, its rms and whether it explains both."""
-    rays = _concat_rays([p.rays, q.rays])
+    rays = concat_rays([p.rays, q.rays])
     w = np.r_[np.full(p.length, 1.0), np.full(q.length, 1.0)]
     n0 = p.normal if p.length >= q.length else q.normal
     n = refine_plane(rays, n0)

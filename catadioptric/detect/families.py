@@ -42,7 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Family", "group_families"]
+__all__ = ["Family", "group_families", "refine_direction", "log_nfa", "concurrent"]
 
 
 @dataclass
@@ -68,7 +68,9 @@ def _chi2(N, C, S, floor2):
     return num / den
 
 
-def _refine(N, C, lines, s0):
+def refine_direction(N, C, lines, s0):
+    """The common direction of the lines ``lines`` (plane normals ``N``, covariances ``C``) and its covariance,
+    signed like ``s0``; ``s0`` and the identity for fewer than two lines."""
     from ..linefit import direction_from_planes
 
     if len(lines) < 2:
@@ -77,7 +79,7 @@ def _refine(N, C, lines, s0):
     return (s if s @ s0 >= 0 else -s), cov
 
 
-def _log_nfa(eps_agree: np.ndarray, n_free: int) -> float:
+def log_nfa(eps_agree: np.ndarray, n_free: int) -> float:
     """How surprising it is that ``len(eps_agree)`` of ``n_free`` lines agree with one direction,
     each line ``i`` by chance with probability ``eps_agree[i]`` (for a direction uniform on the
     sphere, ``P(|n . s| <= e) = e``): ``log C(n_free - 2, k - 2) + sum log eps`` over all but the two
@@ -93,7 +95,7 @@ def _log_nfa(eps_agree: np.ndarray, n_free: int) -> float:
     return float(log_comb + np.sum(np.log(e)))
 
 
-def _concurrent(cam, s, ends, radius: float) -> bool:
+def concurrent(cam, s, ends, radius: float) -> bool:
     """True when most of the lines (end pixels ``ends (k, 2, 2)``) end within ``radius`` pixels of
     an image of ``+s`` or ``-s``: lines through one point (a building's corner) whose planes all
     hold the ray to it, not parallel lines (which recede towards their vanishing point but
@@ -148,12 +150,12 @@ def group_families(normals, covs, pixels, *, chi2_max: float = 9.0, angle_floor_
             break
         n_free = int(free.sum())
         # rank by significance (most negative log NFA first)
-        scores = np.array([_log_nfa(np.minimum(band[h, agree[h]], 1.0), n_free) for h in cand])
+        scores = np.array([log_nfa(np.minimum(band[h, agree[h]], 1.0), n_free) for h in cand])
         h = int(cand[np.argmin(scores)])
         lines = np.flatnonzero(agree[h])
         s = S[h]
         for _ in range(3):
-            s, cov = _refine(N, C, lines, s)
+            s, cov = refine_direction(N, C, lines, s)
             x2 = _chi2(N, C, s[None], floor2)[0]
             new = np.flatnonzero((x2 <= chi2_max) & free)
             if np.array_equal(new, lines) or len(new) < min_lines:
@@ -162,10 +164,10 @@ def group_families(normals, covs, pixels, *, chi2_max: float = 9.0, angle_floor_
         sub = _split(N, C, lines, s, floor2, min_lines, split_gain)
         if sub is not None:  # a blend of two families: keep the better half, the rest stays free
             lines = sub
-            s, cov = _refine(N, C, lines, s)
+            s, cov = refine_direction(N, C, lines, s)
         b = np.sqrt(chi2_max * (np.einsum("i,lij,j->l", s, C[lines], s) + floor2))
-        if (len(lines) < min_lines or _log_nfa(np.minimum(b, 1.0), n_free) > max_log_nfa
-                or (cam is not None and _concurrent(cam, s, np.asarray(ends)[lines], concurrency_px))):
+        if (len(lines) < min_lines or log_nfa(np.minimum(b, 1.0), n_free) > max_log_nfa
+                or (cam is not None and concurrent(cam, s, np.asarray(ends)[lines], concurrency_px))):
             # the hypothesis does not hold up once refined: drop it and go on
             X2[h] = np.inf
             continue
@@ -201,7 +203,7 @@ def _split(N, C, lines, s, floor2, min_lines, gain, tight=4.0):
         a = X[h] <= tight
         if a.sum() < min_lines or (~a).sum() < min_lines:
             continue
-        sa, _ = _refine(N, C, lines[a], H[h])
+        sa, _ = refine_direction(N, C, lines[a], H[h])
         rest = lines[~a]
         # the rest's own best direction (through two of its lines)
         ii, jj = np.triu_indices(len(rest), 1)
@@ -211,7 +213,7 @@ def _split(N, C, lines, s, floor2, min_lines, gain, tight=4.0):
             continue
         Hb = Hb[nb > 1e-9] / nb[nb > 1e-9, None]
         sb = Hb[int(np.argmin(np.sum(np.minimum(_chi2(N[rest], C[rest], Hb, floor2), 9.0), axis=1)))]
-        sb, _ = _refine(N, C, rest, sb)
+        sb, _ = refine_direction(N, C, rest, sb)
         total = float(np.sum(_chi2(N[lines[a]], C[lines[a]], sa[None], floor2))
                       + np.sum(_chi2(N[rest], C[rest], sb[None], floor2)))
         if single - total > gain and (best is None or total < best[0]):
@@ -232,7 +234,7 @@ def _merge_close(N, C, dirs, members, max_angle):
         if ang[i, j] >= max_angle:
             break
         lines = np.union1d(members[i], members[j])
-        s, _ = _refine(N, C, lines, dirs[i] if len(members[i]) >= len(members[j]) else dirs[j])
+        s, _ = refine_direction(N, C, lines, dirs[i] if len(members[i]) >= len(members[j]) else dirs[j])
         for k in sorted((i, j), reverse=True):
             del dirs[k], members[k]
         dirs.append(s)
@@ -264,7 +266,7 @@ def _assign(N, C, w, dirs, floor2, chi2_max, min_lines, max_band):
         families = []
         for f in keep:
             lines = np.flatnonzero(label == f)
-            s, cov = _refine(N, C, lines, D[f])
+            s, cov = refine_direction(N, C, lines, D[f])
             families.append(Family(direction=s, cov=cov, lines=lines.tolist(), pixels=int(w[lines].sum())))
         newD = np.array([f.direction for f in families]).reshape(-1, 3)
         if len(newD) == len(D) and np.allclose(np.abs(np.sum(newD * D, axis=1)), 1.0, atol=1e-12):

@@ -21,7 +21,7 @@ import numpy as np
 
 from .._checks import CatadioptricError
 from ..linefit.planes import Rays, plane_distances, refine_plane
-from .curves import LinePiece, _concat_rays
+from .curves import LinePiece, concat_rays
 
 __all__ = ["grow_lines"]
 
@@ -43,7 +43,7 @@ def _grow_one(p: LinePiece, uv: np.ndarray, normal: np.ndarray, rays: Rays, thre
     if len(cand) == 0:
         return p
     all_uv = np.concatenate([p.uv, uv[cand]])
-    all_rays = _concat_rays([p.rays, rays.take(cand)])
+    all_rays = concat_rays([p.rays, rays.take(cand)])
     own = np.r_[np.ones(p.length, bool), np.zeros(len(cand), bool)]
     e1 = p.rays.d[0] - (p.rays.d[0] @ n) * n
     e1 /= max(np.linalg.norm(e1), 1e-300)

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._checks import CatadioptricError
-from .families import Family, _concurrent, _log_nfa, _refine, group_families
+from .families import Family, concurrent, group_families, log_nfa, refine_direction
 
 __all__ = ["JointFamily", "joint_families", "with_families"]
 
@@ -87,8 +87,8 @@ def joint_families(det_a, det_b, R, *, taken_a=(), taken_b=(), rotation_std_deg:
             continue
         if len(known) and np.degrees(np.arccos(np.clip(np.max(np.abs(known @ s)), 0.0, 1.0))) < merge_deg:
             continue
-        if concurrency_px > 0 and (_concurrent(det_a.cam, s, _ends(det_a, la), concurrency_px)
-                                   or _concurrent(det_b.cam, R @ s, _ends(det_b, lb), concurrency_px)):
+        if concurrency_px > 0 and (concurrent(det_a.cam, s, _ends(det_a, la), concurrency_px)
+                                   or concurrent(det_b.cam, R @ s, _ends(det_b, lb), concurrency_px)):
             continue
         out.append(JointFamily(direction=s, lines_a=la, lines_b=lb))
     return out
@@ -105,7 +105,7 @@ def _log_nfa_distinct(N, C, s, n_free, chi2_max, angle_floor_deg):
     for i in order:
         if all(np.arccos(min(1.0, abs(float(N[i] @ N[j])))) > band[i] + band[j] for j in kept):
             kept.append(i)
-    return _log_nfa(band[kept], n_free)
+    return log_nfa(band[kept], n_free)
 
 
 def with_families(det, new_families, min_lines: int = 2):
@@ -123,13 +123,13 @@ def with_families(det, new_families, min_lines: int = 2):
         keep = [i for i in fam.lines if i not in moved]
         if len(keep) < min_lines:
             continue
-        s, cov = _refine(det.normal, det.normal_cov, np.array(keep), fam.direction)
+        s, cov = refine_direction(det.normal, det.normal_cov, np.array(keep), fam.direction)
         family[keep] = len(families)
         families.append(Family(direction=s, cov=cov, lines=keep, pixels=int(sum(len(det.uv[i]) for i in keep))))
     new = []
     for ls, s0 in new_families:
         ls = [int(i) for i in ls]
-        s, cov = _refine(det.normal, det.normal_cov, np.array(ls), np.asarray(s0, float))
+        s, cov = refine_direction(det.normal, det.normal_cov, np.array(ls), np.asarray(s0, float))
         family[ls] = len(families)
         new.append(len(families))
         families.append(Family(direction=s, cov=cov, lines=ls, pixels=int(sum(len(det.uv[i]) for i in ls))))
