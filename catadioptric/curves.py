@@ -18,7 +18,7 @@ import numpy as np
 
 from ._checks import CatadioptricError, as_count, as_scalar
 
-__all__ = ["Piece", "trace", "sweep_options", "MAX_VERTICES"]
+__all__ = ["Piece", "trace", "sweep_options", "MAX_VERTICES", "image_size"]
 
 MIN_STEP_PX = 1e-6
 OFF_IMAGE = 0.5  # off the image, the allowed step grows by this fraction of the distance from it
@@ -260,6 +260,18 @@ def _chain_single(c, par, uv, r, valid, periodic, reach, start, stop) -> list[Pi
     ends = breaks[np.searchsorted(breaks, starts_r)]  # last sample of each run
     return [_piece(c, uv, r, par, rot[a:b + 1], k[rot[a:b + 1]], False, periodic, start, stop)
             for a, b in zip(starts_r, ends)]
+
+
+def image_size(cam) -> tuple[int, int]:
+    """``(width, height)`` of any camera: a model of this package, an exact rig (its pinhole's)
+    or a :class:`~catadioptric.unified.UnifiedCamera` with a size."""
+    pin = getattr(cam, "pinhole", None)
+    if pin is not None:
+        return int(pin.width), int(pin.height)
+    w, h = getattr(cam, "width", None), getattr(cam, "height", None)
+    if w is None or h is None:
+        raise CatadioptricError(f"cam: expected a camera with an image size, got {type(cam).__name__} without one")
+    return int(w), int(h)
 
 
 def pixel_grid_rays(cam, step: int):

@@ -10,14 +10,17 @@ as the limits. Segments use the sub-range of their end points.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ._checks import CatadioptricError, as_count, as_float_array
 from ._numeric import norm, unit
-from .cameras import CatadioptricCamera
 from .curves import Piece, sweep_options, trace
 from .projection import solve_targets
+
+if TYPE_CHECKING:  # annotations only: cameras.py sits above this module and calls it
+    from .cameras import CatadioptricCamera
 
 __all__ = ["LineImage", "line_image", "segment_image", "pluecker", "pluecker_point_direction"]
 

@@ -6,14 +6,17 @@ several solutions carry a fixed-width axis (NaN-padded) and a ``valid`` mask.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ._checks import CatadioptricError, as_float_array
 from ._numeric import norm, rowdot, unit
-from .cameras import CatadioptricCamera
 from .mirrors import QuadricMirror
 from .solvers.reflection import reflect
+
+if TYPE_CHECKING:  # annotations only: cameras.py sits above this module and calls it
+    from .cameras import CatadioptricCamera
 
 __all__ = ["Rays", "Projections", "backproject", "project", "project_from", "intersect_mirror", "visibility"]
 

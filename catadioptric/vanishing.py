@@ -10,13 +10,16 @@ at infinity (``w = 0``); see docs/solvers.md.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ._checks import CatadioptricError, as_float_array
 from ._numeric import rowdot, unit
-from .cameras import CatadioptricCamera
 from .projection import solve_targets
+
+if TYPE_CHECKING:  # annotations only: cameras.py sits above this module and calls it
+    from .cameras import CatadioptricCamera
 
 __all__ = ["VanishingPoints", "VanishingCurve", "vanishing_points", "directions_from_vanishing_points",
            "vanishing_curve", "paper_directions_from_mirror_points"]
@@ -176,8 +179,7 @@ def vanishing_curve(cam: CatadioptricCamera, normal, *, max_step_px: float = 1.0
     vanishing point (:func:`catadioptric.curves.trace` refines the sweep where neighbours
     are too far apart and where the curve leaves the observable region, down to 1e-9 rad).
     """
-    from .curves import sweep_options, trace
-    from .models.base import image_size
+    from .curves import image_size, sweep_options, trace
 
     m = as_float_array(normal, "normal", 3)
     if m.shape != (3,) or not np.any(m != 0):

@@ -27,6 +27,7 @@ from typing import ClassVar
 import numpy as np
 
 from .._checks import CatadioptricError, as_float_array
+from ..curves import image_size  # defined with the curves, which need it; re-exported here
 
 __all__ = ["CentralCamera", "ROUND_TRIP_PX", "check_size", "image_size", "nonzero_focal"]
 
@@ -59,18 +60,6 @@ def nonzero_focal(v, name: str) -> float:
     if v == 0:
         raise CatadioptricError(f"{name}: expected a non-zero focal length, got {v!r}")
     return v
-
-
-def image_size(cam) -> tuple[int, int]:
-    """``(width, height)`` of any camera: a model of this package, an exact rig (its pinhole's)
-    or a :class:`~catadioptric.unified.UnifiedCamera` with a size."""
-    pin = getattr(cam, "pinhole", None)
-    if pin is not None:
-        return int(pin.width), int(pin.height)
-    w, h = getattr(cam, "width", None), getattr(cam, "height", None)
-    if w is None or h is None:
-        raise CatadioptricError(f"cam: expected a camera with an image size, got {type(cam).__name__} without one")
-    return int(w), int(h)
 
 
 @dataclass(frozen=True, eq=False)
