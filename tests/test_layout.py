@@ -106,10 +106,7 @@ def _trees():
 
 
 # Known crossings left for now, as (importing module, private name): each one is a debt, not a licence.
-PRIVATE_ALLOWED = {
-    # validate/ is being reworked in parallel (issue 42, item 2): make ``_angle_deg`` public there
-    ("catadioptric.validate.image_pairs", "catadioptric.validate.relative_pose._angle_deg"),
-}
+PRIVATE_ALLOWED: set = set()
 
 
 def test_no_private_name_crosses_a_module_boundary():

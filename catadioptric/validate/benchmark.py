@@ -24,7 +24,7 @@ from .._io import atomic_write_json, jsonable
 from .benchmark_spec import pairs_of, quality_of
 
 __all__ = ["render_benchmark", "evaluate_benchmark", "run_benchmark", "dataset_folder", "results_folder",
-           "overlay_paths", "benchmark_scene", "code_digest"]
+           "overlay_paths", "benchmark_scene", "code_digest", "read_results", "stored_results", "rewrite_report"]
 
 
 def dataset_folder(data: str, config: str, renderer: str) -> str:
@@ -46,9 +46,10 @@ def benchmark_scene(spec):
     return build_scene(spec_path(spec["scene"]))
 
 
-def render_benchmark(spec: dict, data: str, *, workers: int = 1, progress: bool = True) -> dict:
+def render_benchmark(spec: dict, data: str, *, workers: int = 1, progress: bool = True, only=None) -> dict:
     """Render every configuration's pairs (one dataset per configuration and renderer; views
-    ``pNNA``/``pNNB``). Finished views are skipped. Returns ``{(config, renderer): manifest}``."""
+    ``pNNA``/``pNNB``), or those of ``only`` (``(configuration, pair index)`` tuples). Finished
+    views are skipped. Returns ``{(config, renderer): manifest}``."""
     from ..cliargs import parse_resolution
     from ..render.dataset import render_dataset
     from ..rigspec import load_rig
@@ -60,7 +61,8 @@ def render_benchmark(spec: dict, data: str, *, workers: int = 1, progress: bool 
         cam = load_rig(config["rig"], width=w, height=h)
         by_renderer: dict = {}
         for p in pairs_of(spec, config):
-            by_renderer.setdefault(p.renderer, []).extend(zip(p.names, p.poses))
+            if only is None or (config["name"], p.index) in only:
+                by_renderer.setdefault(p.renderer, []).extend(zip(p.names, p.poses))
         for renderer, views in by_renderer.items():
             folder = dataset_folder(data, config["name"], renderer)
             if progress:
@@ -210,6 +212,99 @@ def run_images_only(spec: dict, data: str, *, out: str | None = None, workers: i
         return aggregate_images(spec, [], image_results)
     return write_images_report(spec, image_results, out, command=command, overlays=overlay_paths(spec, data),
                                timing={"images_seconds": time.perf_counter() - t0})
+
+
+def read_results(folder: str, flag: str = "RESULTS") -> dict:
+    """The per-pair results of a results folder (``data/results_images`` or ``data/results``, or a
+    copy of one kept from a run before a change): ``{"<config>/pNN.json": result}``. A folder that
+    is not there or holds no ``<config>/pNN.json`` is an error naming ``flag``."""
+    if not os.path.isdir(folder):
+        raise CatadioptricError(f"{flag}: expected a folder of per-pair results (<config>/pNN.json, e.g. "
+                                f"DATA/results_images of catadioptric validate benchmark), got {folder!r}")
+    out = {}
+    for config in sorted(os.listdir(folder)):
+        sub = os.path.join(folder, config)
+        if not os.path.isdir(sub):
+            continue
+        for name in sorted(os.listdir(sub)):
+            if not (name.startswith("p") and name.endswith(".json")):
+                continue
+            path = os.path.join(sub, name)
+            try:
+                with open(path) as f:
+                    r = json.load(f)
+            except (OSError, ValueError) as exc:
+                raise CatadioptricError(f"{flag}: {path} is not a readable JSON file ({exc})") from None
+            if not isinstance(r, dict) or "config" not in r:
+                raise CatadioptricError(f"{flag}: {path} is not a per-pair result of the benchmark")
+            out[f"{config}/{name}"] = r
+    if not out:
+        raise CatadioptricError(f"{flag}: no per-pair results (<config>/pNN.json) in {folder!r}")
+    return out
+
+
+def stored_results(spec: dict, data: str, kind: str) -> list[dict]:
+    """Every pair's stored result of ``kind`` in ``data``, in spec order, whatever code computed it
+    (each result names its code digest, and the report says which): nothing is computed. A pair
+    without a result is an error naming the first one missing and how many are."""
+    folder = results_folder(data, kind)
+    out, missing = [], []
+    for config in spec["configs"]:
+        for p in pairs_of(spec, config):
+            path = os.path.join(folder, config["name"], f"p{p.index:02d}.json")
+            try:
+                with open(path) as f:
+                    out.append(json.load(f))
+            except FileNotFoundError:
+                missing.append(path)
+            except (OSError, ValueError) as exc:
+                raise CatadioptricError(f"--data: {path} is not a readable JSON file ({exc})") from None
+    if missing:
+        raise CatadioptricError(f"--data: no result for {len(missing)} of {len(missing) + len(out)} pairs ({kind} "
+                                f"path), e.g. {missing[0]}: run the benchmark, or write a committed report's "
+                                f"results back first (catadioptric validate restore)")
+    return out
+
+
+def rewrite_report(spec: dict, data: str, out: str, *, images: bool = False, images_only: bool = False,
+                   command: str = "") -> list:
+    """The benchmark's report (``report.md``, ``report.json``, the plots; with ``images_only`` the
+    image path's ``images.md`` / ``images.json``) written again from the per-pair results already in
+    ``data``, computing none (:func:`stored_results`): for when one path's results were computed again
+    with newer code and the other's still stand, or the results of a committed report were written
+    back (:mod:`catadioptric.validate.restore`). The report keeps the command and the timing of the
+    report already in ``out`` (the command that computes everything), else ``command``; an overlay
+    not in ``data`` is kept from ``out``. Returns the code digests per path, ``[(path, {digest:
+    pairs})]``."""
+    from .benchmark_report import write_benchmark_report, write_images_report
+
+    if not spec["configs"]:
+        raise CatadioptricError("spec: expected at least one configuration")
+    old = {}
+    try:
+        with open(os.path.join(out, "images.json" if images_only else "report.json")) as f:
+            old = json.load(f)
+    except (OSError, ValueError):
+        pass
+    command, timing = old.get("command") or command, old.get("timing") or {}
+    overlays = {name: path if os.path.isfile(path) else os.path.join(out, f"images_{name}.png")
+                for name, path in overlay_paths(spec, data).items()}
+    image_results = stored_results(spec, data, "images") if images or images_only else None
+    if images_only:
+        write_images_report(spec, image_results, out, command=command, timing=timing, overlays=overlays)
+        return [("images", _digests(image_results))]
+    results = stored_results(spec, data, "labels")
+    write_benchmark_report(spec, results, out, command=command, timing=timing, image_results=image_results,
+                           overlays=overlays if images else None)
+    return [("labels", _digests(results))] + ([("images", _digests(image_results))] if images else [])
+
+
+def _digests(results) -> dict:
+    count: dict = {}
+    for r in results:
+        key = str(r.get("code") or "unknown")[:8]
+        count[key] = count.get(key, 0) + 1
+    return count
 
 
 def overlay_paths(spec, data) -> dict:

@@ -18,7 +18,7 @@ from ..frames import RigPose
 from ..spectable import SpecTable
 
 __all__ = ["read_benchmark_spec", "load_benchmark_spec", "quick_spec", "quality_of", "quality_text", "Pair",
-           "pairs_of", "RENDERERS", "PIXEL_MODES"]
+           "pairs_of", "select_pairs", "with_quality", "RENDERERS", "PIXEL_MODES"]
 
 RENDERERS = ("mitsuba", "povray")
 PIXEL_MODES = ("curve", "ridge")
@@ -135,6 +135,58 @@ def quick_spec(spec: dict) -> dict:
         out[k] = q[k]
     out["name"] = spec["name"] + "_quick"
     return out
+
+
+def with_quality(spec: dict, values, flag: str = "--quality") -> dict:
+    """The spec with its quality presets replaced: each of ``values`` is a preset for every
+    renderer (``standard``) or for one (``mitsuba=standard``). Only the image path reads the
+    beauty images, so only its results are keyed by the quality (a copy of the benchmark's views
+    at another preset, in a data folder of its own, compares the two)."""
+    from ..render.common import load_quality
+
+    q = dict(spec["quality"]) if isinstance(spec["quality"], dict) else {r: spec["quality"] for r in RENDERERS}
+    for v in values:
+        renderer, _, preset = v.rpartition("=")
+        if renderer and renderer not in RENDERERS:
+            raise CatadioptricError(f"{flag}: expected PRESET or RENDERER=PRESET with RENDERER one of "
+                                    f"{list(RENDERERS)}, got {v!r}")
+        try:
+            load_quality(preset)
+        except CatadioptricError as exc:
+            raise CatadioptricError(f"{flag}: {str(exc).removeprefix('quality: ')}") from None
+        for r in ([renderer] if renderer else RENDERERS):
+            q[r] = preset
+    if not isinstance(spec["quality"], dict) and len(set(q.values())) == 1:
+        return spec | {"quality": q[RENDERERS[0]]}  # one preset stays one (the results keep their key)
+    return spec | {"quality": q}
+
+
+def select_pairs(spec: dict, text: str, flag: str = "--only") -> list[tuple[str, int]]:
+    """The pairs named by ``text``, comma-separated: ``CONFIG:PAIR`` (one pair), ``CONFIG`` (its
+    pairs) or a renderer (the pairs it renders), in the spec's order. Unknown names are an error
+    naming the spec's."""
+    names = [c["name"] for c in spec["configs"]]
+    every = [(c["name"], p.index, p.renderer) for c in spec["configs"] for p in pairs_of(spec, c)]
+    chosen = set()
+    for item in (x.strip() for x in text.split(",")):
+        config, sep, index = item.partition(":")
+        if sep:
+            try:
+                k = int(index)
+            except ValueError:
+                k = -1
+            if config not in names or not 0 <= k < spec["pairs"]:
+                raise CatadioptricError(f"{flag}: expected CONFIG:PAIR with CONFIG one of {names} and PAIR below "
+                                        f"{spec['pairs']}, got {item!r}")
+            chosen.add((config, k))
+        elif item in names:
+            chosen |= {(c, k) for c, k, _ in every if c == item}
+        elif item in spec["renderers"]:
+            chosen |= {(c, k) for c, k, r in every if r == item}
+        else:
+            raise CatadioptricError(f"{flag}: expected CONFIG:PAIR, a configuration ({', '.join(names)}) or a "
+                                    f"renderer ({', '.join(spec['renderers'])}), got {item!r}")
+    return [(c, k) for c, k, _ in every if (c, k) in chosen]
 
 
 @dataclass(frozen=True)

@@ -1,9 +1,15 @@
 """``catadioptric validate``: run an experiment and write its report (JSON + Markdown + PNG).
 
     catadioptric validate relative-pose DATASET --views A B --out DIR [--noise PX ...] [--draws N] ...
-    catadioptric validate benchmark [--spec FILE] [--quick] --out DIR [--workers N]
+    catadioptric validate benchmark [--spec FILE] [--quick] --out DIR [--data DIR] [--workers N] [--images | --images-only]
+        [--only PAIRS] [--quality [RENDERER=]PRESET] [--report-only]
     catadioptric validate noise-sweep --out DIR [--trials N] [--seed N]
     catadioptric validate real --data DIR --out DIR [--max-rotation DEG]
+    catadioptric validate restore REPORT [--data DIR]
+    catadioptric validate compare BASE NEW [--prior DEG|none]
+    catadioptric validate image-runs RESULTS [RESULTS ...]
+    catadioptric validate family-bound --out FILE [--spec FILE] [--data DIR] | --from-json FILE
+    catadioptric validate pixel-residuals DATASET VIEW [VIEW ...]
 
 ``relative-pose`` exits with code 3 when a draw's answer is ambiguous (its report lists every
 candidate), 2 on bad input, 0 otherwise.
@@ -105,10 +111,37 @@ def _images_only(spec, data, out, args) -> int:
     return 0
 
 
+def _subset(spec, data, only, args) -> int:
+    """``--only``: the pairs named, rendered and evaluated (resuming) into ``data``'s per-pair
+    results; a summary printed, no report written (a report is of every pair)."""
+    from .benchmark import evaluate_benchmark, render_benchmark, results_folder
+    from .benchmark_report import aggregate, aggregate_images
+
+    render_benchmark(spec, data, workers=args.workers, progress=not args.no_progress, only=set(only))
+    kinds = ["images"] if args.images_only else ["labels", "images"] if args.images else ["labels"]
+    for kind in kinds:
+        res = evaluate_benchmark(spec, data, workers=args.workers, progress=not args.no_progress, kind=kind,
+                                 only=only)
+        if kind == "labels":
+            for name, a in aggregate(spec, res).items():
+                for noise, e in a["noise"].items() if a["pairs"] else ():
+                    q = e["exact"]["rotation_deg"]["median"]
+                    print(f"{name:22s} {float(noise):4.1f} px: {a['pairs']} pairs, rotation exact "
+                          f"{'-' if q is None else f'{q:.3f}'} deg")
+        else:
+            for key, e in aggregate_images(spec, [], res).items():
+                if key.endswith("/all"):
+                    q = e["priors"][f"{spec['images']['max_rotation_deg'][-1]:g}"]
+                    print(f"{key[:-4]:22s} images: {e['pairs']} pairs, ambiguous {q['ambiguous']}, failed {q['failed']}")
+        print(f"per-pair results of {len(res)} pairs in {results_folder(data, kind)}")
+    print("no report written for a subset of the pairs: compare the results with `catadioptric validate compare`")
+    return 0
+
+
 def _benchmark(args) -> int:
     from .._checks import CatadioptricError
-    from .benchmark import run_benchmark
-    from .benchmark_spec import load_benchmark_spec, quick_spec
+    from .benchmark import rewrite_report, run_benchmark
+    from .benchmark_spec import load_benchmark_spec, quick_spec, select_pairs, with_quality
 
     spec_path = args.spec or DEFAULT_SPEC
     if args.spec is None and not os.path.exists(spec_path):
@@ -119,8 +152,22 @@ def _benchmark(args) -> int:
         raise CatadioptricError(f"--spec: {exc}") from None
     if args.quick:
         spec = quick_spec(spec)
+    if args.quality:
+        spec = with_quality(spec, args.quality)
+    only = select_pairs(spec, args.only) if args.only is not None else None
+    if only is not None and args.report_only:
+        raise CatadioptricError("--only: a report is of every pair; --report-only writes one, so not both")
     out = check_out_dir(args.out)
     data = check_out_dir(args.data, "--data") if args.data else out
+    if args.report_only:
+        cmd = " ".join(w for w in _command(args).split(" ") if w != "--report-only")
+        digests = rewrite_report(spec, data, out, images=args.images, images_only=args.images_only, command=cmd)
+        for kind, d in digests:
+            print(f"{kind}: per-pair results of code digest " + ", ".join(f"{k} ({n} pairs)" for k, n in d.items()))
+        print(f"wrote {os.path.join(out, 'images.md' if args.images_only else 'report.md')} (nothing computed)")
+        return 0
+    if only is not None:
+        return _subset(spec, data, only, args)
     if args.images_only:
         return _images_only(spec, data, out, args)
     agg = run_benchmark(spec, out, data=data, workers=args.workers, progress=not args.no_progress,
@@ -190,6 +237,18 @@ def register(sub) -> None:
     b.add_argument("--images-only", action="store_true",
                    help="the image-only path alone: its per-pair results, a summary printed and its own report "
                         "(images.md in --out; report.md is not touched)")
+    b.add_argument("--only", metavar="PAIRS",
+                   help="only these pairs, comma-separated: CONFIG:PAIR, a configuration or a renderer (e.g. "
+                        "sphere:0,ellipsoid:3 or mitsuba); rendered and evaluated into --data, a summary printed, "
+                        "no report written (compare two runs' results with `catadioptric validate compare`)")
+    b.add_argument("--quality", action="append", metavar="[RENDERER=]PRESET",
+                   help="render at this quality preset instead of the spec's (repeatable; e.g. mitsuba=standard): "
+                        "with another --data, a copy of the benchmark's views whose image path can be compared "
+                        "with the benchmark's")
+    b.add_argument("--report-only", action="store_true",
+                   help="write the report again from the per-pair results already in --data, whatever code made "
+                        "them (the report names each digest), computing nothing; keeps the command and timing of "
+                        "the report already in --out")
     b.add_argument("--no-progress", action="store_true", help="no progress bars")
     b.set_defaults(func=_benchmark, command_line=None)
     n = vs.add_parser("noise-sweep", help="synthetic noise sweeps of VPs, directions and rotation (paper Figs. 5-6)")
@@ -197,6 +256,16 @@ def register(sub) -> None:
     n.add_argument("--trials", type=positive_int, default=100, help="trials per noise level (default 100)")
     n.add_argument("--seed", type=int, default=0, help="seed (default 0)")
     n.set_defaults(func=_noise_sweep)
+    from .compare import register_compare
+    from .family_bound import register_family_bound
+    from .image_runs import register_image_runs
+    from .pixel_residuals import register_pixel_residuals
     from .real import register_real
+    from .restore import register_restore
 
     register_real(vs)
+    register_restore(vs)
+    register_compare(vs)
+    register_image_runs(vs)
+    register_family_bound(vs)
+    register_pixel_residuals(vs)

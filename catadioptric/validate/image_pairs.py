@@ -31,7 +31,7 @@ import time
 import numpy as np
 
 from .._checks import CatadioptricError
-from .relative_pose import _angle_deg
+from .relative_pose import angle_between_deg
 
 __all__ = ["evaluate_image_pair"]
 
@@ -174,9 +174,9 @@ def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, joint
         if res.t is not None:
             if res.metric:
                 rec["translation_error_m"] = float(np.linalg.norm(res.t - t_gt))
-                rec["translation_direction_error_deg"] = _angle_deg(res.t, t_gt)
+                rec["translation_direction_error_deg"] = angle_between_deg(res.t, t_gt)
             else:
-                rec["translation_direction_error_deg"] = _angle_deg(res.t, R_gt @ centres[0] + t_gt - centres[1])
+                rec["translation_direction_error_deg"] = angle_between_deg(res.t, R_gt @ centres[0] + t_gt - centres[1])
         rec.update(_mahalanobis(res, R_gt, t_gt))
         rec.update(_families_check(fmap, fdets, fscores, res.R, R_gt, label_families, label_families_3))
         out["runs"].append(rec)

@@ -20,8 +20,8 @@ import numpy as np
 
 from .._checks import CatadioptricError
 
-__all__ = ["evaluate_pair", "central_approximation", "central_model_error_px", "ENDS", "length_observable",
-           "translation_text"]
+__all__ = ["evaluate_pair", "central_approximation", "central_model_error_px", "ENDS", "angle_between_deg",
+           "length_observable", "translation_text"]
 
 ENDS = ("unknown", "given")
 _UNIFIED_CACHE: dict = {}
@@ -55,7 +55,8 @@ def _central_fit(cam):
     return _UNIFIED_CACHE[key]
 
 
-def _angle_deg(a, b) -> float:
+def angle_between_deg(a, b) -> float:
+    """The angle between two 3-vectors (degrees; a translation's direction against the truth)."""
     a = np.asarray(a, float)
     b = np.asarray(b, float)
     c = a @ b / (np.linalg.norm(a) * np.linalg.norm(b))
@@ -86,9 +87,9 @@ def _record(res, R_gt, t_gt, centre_a, centre_b, seconds) -> dict:
     if res.t is not None:
         if res.metric:
             out["translation_error_m"] = float(np.linalg.norm(res.t - t_gt))
-            out["translation_direction_error_deg"] = _angle_deg(res.t, t_gt)
+            out["translation_direction_error_deg"] = angle_between_deg(res.t, t_gt)
         else:  # the direction between the two views' centres
-            out["translation_direction_error_deg"] = _angle_deg(res.t, R_gt @ centre_a + t_gt - centre_b)
+            out["translation_direction_error_deg"] = angle_between_deg(res.t, R_gt @ centre_a + t_gt - centre_b)
     # every candidate also where the first stage was weak (few meeting rays): the wide pairs' calibration
     # of the bar reads the rivals' margins there (docs/relative_pose.md, "The verdict at wide baselines")
     weak = res.meeting_rays is not None and res.meeting_rays < MIN_MEETINGS
