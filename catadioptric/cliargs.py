@@ -161,7 +161,7 @@ def check_out_dir(value: str, flag: str = "--out") -> str:
 def parse_resolution(value: str, flag: str = "--resolution") -> tuple[int, int]:
     """``(width, height)`` of a ``--resolution`` value (a preset name or WIDTHxHEIGHT, within the
     size limit of :func:`catadioptric.render.common.load_resolution`)."""
-    from .render.common import load_resolution
+    from .render_presets import load_resolution
 
     try:
         return load_resolution(value)

@@ -174,7 +174,7 @@ def f():
 LAYERS = [
     ["_checks", "_io", "_numeric", "_pool"],
     ["_data", "_extras", "curves", "frames", "mirrors", "solvers", "spectable"],
-    ["projection"],  # rays, projection, visibility: the solvers applied to a camera (duck-typed)
+    ["projection", "render_presets"],  # projection: the solvers applied to a camera (duck-typed)
     ["lines", "vanishing"],
     ["cameras", "models"],  # the cameras' convenience methods call the layers below
     ["rigs", "unified"],
@@ -194,8 +194,6 @@ LAYERS = [
 
 # Known upward imports, as (importing module, imported module): each is a debt to pay, not a licence.
 UPWARD_ALLOWED = {
-    # the render presets (--resolution) live in render.common; they should get a module below cliargs
-    ("catadioptric.cliargs", "catadioptric.render.common"),
     # the label-to-pixels step (curve_pixels) should move below both detect and validate
     ("catadioptric.detect.evaluate", "catadioptric.validate.observations"),
     # DetectedLines.to_view_lines builds the pose's input (pose.ViewLines): a conversion for twoview
