@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["rowdot", "unit", "norm", "max_abs"]
+__all__ = ["rowdot", "unit", "norm", "max_abs", "cross"]
 
 
 def rowdot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -23,6 +23,21 @@ def rowdot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     row rounded the same way whatever the batch it is in (no BLAS)."""
     b = np.asarray(b, dtype=float)
     return np.einsum("...k,k->...", a, b) if b.ndim == 1 else np.einsum("...k,kn->...n", a, b)
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross(a, b)`` of 3-vectors along the last axis (broadcast), to the same bits (the same
+    products and differences), without ``np.cross``'s per-call overhead (axis handling: about 20 us a
+    call, which the refinement's finite differences pay tens of thousands of times)."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    out[..., 0] = a1 * b2 - a2 * b1
+    out[..., 1] = a2 * b0 - a0 * b2
+    out[..., 2] = a0 * b1 - a1 * b0
+    return out
 
 
 def max_abs(v: np.ndarray, axis: int = -1, keepdims: bool = True) -> np.ndarray:
