@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._numeric import cross
 from .central import meeting, rad_per_px, residuals2, sides, translation_costs
 from .rotation import refine_rotation, rotation_angle_deg, rotation_from_directions
 
@@ -343,11 +344,13 @@ class LinesInOrder:
         return pairs, t
 
     def _seeds(self, thr, c2):
-        """Every pair of offsets of every two families (class docstring, 1): ``[(cost, pairs, t)]``."""
+        """Every pair of offsets of every two families (class docstring, 1), each fitted once (least
+        squares on its common meeting rays, all offsets in one batch): ``[(cost, pairs, (kA, kB))]``."""
         found = []
         for f, g in itertools.combinations(self.keys, 2):
             GA, GB = self.grids[f, g]
             (na_f, na_g), (nb_f, nb_g) = GA.shape, GB.shape
+            combos, kAs, kBs, ids = [], [], [], []
             for df in range(-(nb_f - 1), na_f):
                 i0, i1 = max(0, df), min(na_f, nb_f + df)
                 for dg in range(-(nb_g - 1), na_g):
@@ -356,12 +359,40 @@ class LinesInOrder:
                     ok = (kA >= 0) & (kB >= 0)
                     if ok.sum() < self.min_meetings:
                         continue
-                    t, cost = self._fit(kA[ok], kB[ok], thr, c2, rounds=1)
-                    if t is not None:
-                        pairs = {f: [(i, i - df) for i in range(i0, i1)], g: [(j, j - dg) for j in range(j0, j1)]}
-                        found.append((cost, pairs, (kA[ok], kB[ok])))
+                    ids.append(np.full(int(ok.sum()), len(combos)))
+                    kAs.append(kA[ok])
+                    kBs.append(kB[ok])
+                    combos.append({f: [(i, i - df) for i in range(i0, i1)], g: [(j, j - dg) for j in range(j0, j1)]})
+            if not combos:
+                continue
+            kA, kB, cid = np.concatenate(kAs), np.concatenate(kBs), np.concatenate(ids)
+            costs = self._batch_costs(kA, kB, cid, len(combos), thr, c2)
+            found += [(float(costs[k]), combos[k], (kAs[k], kBs[k])) for k in range(len(combos))]
         found.sort(key=lambda h: h[0])
         return found
+
+    def _batch_costs(self, kA, kB, cid, n, thr, c2):
+        """For ``n`` sets of meeting rays (A's ``kA`` seen as B's ``kB``, set ``cid``): each set's least
+        squares displacement (either sign) and its truncated cost over all of A's meeting rays."""
+        P, Q = self.ra[kA], self.xb[kB]
+        Av = cross(P, Q)
+        Av /= np.maximum(np.linalg.norm(Av, axis=1), 1e-300)[:, None]
+        M = np.zeros((n, 3, 3))
+        np.add.at(M, cid, Av[:, :, None] * Av[:, None, :])
+        t = np.linalg.eigh(M)[1][:, :, 0][cid]  # (K, 3): each ray's set's displacement
+        r2 = np.sum(Av * t, axis=1) ** 2 / (thr / 3.0) ** 2
+        pq = np.sum(P * Q, axis=1)
+        det = np.maximum(1.0 - pq**2, 1e-300)
+        pt, qt = np.sum(t * P, axis=1), np.sum(t * Q, axis=1)
+        lam, mu = (-pt + pq * qt) / det, (qt - pq * pt) / det
+        exempt = pq > np.cos(3.0 * thr)
+        best = np.full(n, np.inf)
+        for sign in (1.0, -1.0):  # -t flips both depths
+            inl = (r2 <= c2) & ((sign * lam > 0) & (sign * mu > 0) | exempt)
+            used = np.bincount(cid, minlength=n)
+            cost = np.bincount(cid, weights=np.where(inl, r2, c2), minlength=n) + c2 * (len(self.xa) - used)
+            best = np.minimum(best, cost)
+        return best
 
     def hypotheses(self, thr: float, c2: float, *, top: int = 8) -> list:
         """The ``top`` best seeds, each aligned again: ``[(pairs of lines (A, B), unit displacement)]``."""
