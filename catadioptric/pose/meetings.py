@@ -17,7 +17,7 @@ not but both rays lie in one plane with the baseline (a line parallel to the bas
 one plane with both centres, and so does its meeting ray with any other line): on the
 benchmark's hyperbolic pair 4 only 18 of stage 1's 146 inlier meeting rays belong to lines that
 meet, and asking the lines themselves to meet biased the rotation
-(tools/near_central_variants/meeting_lines.patch; docs/relative_pose.md, step 4).
+(the research log, validate/NOTES.md: "meeting_lines"; docs/relative_pose.md, step 4).
 """
 from __future__ import annotations
 
