@@ -188,12 +188,20 @@ def _error_lines(log: str, limit: int = 25) -> str:
     return "\n".join(lines[-limit:])
 
 
-def _die_with_parent() -> None:  # pragma: no cover - runs in the child between fork and exec
-    """Linux: the child gets SIGKILL when the thread that started it dies (however it dies: a
-    killed CLI leaves no POV-Ray running)."""
-    import ctypes
+# Linux: the child gets SIGKILL when the thread that started it dies (however it dies: a killed CLI
+# leaves no POV-Ray running): PR_SET_PDEATHSIG, set by a small program that then becomes POV-Ray (the
+# setting survives the exec). Not by a preexec_fn: that makes subprocess fork() instead of vfork(),
+# and fork() runs OpenBLAS's fork handler, which waits for a BLAS call running in another thread (the
+# ground truth computed beside the render) and never returns: the render hung.
+_DIE_WITH_PARENT = ("import ctypes, os, signal, sys; ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL); "
+                    "os.execvp(sys.argv[1], sys.argv[1:])")
 
-    ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+
+def _die_with_parent(cmd: list[str]) -> list[str]:
+    """``cmd`` run so that it dies with the thread that started it (Linux; elsewhere ``cmd``)."""
+    if not sys.platform.startswith("linux"):
+        return cmd
+    return [sys.executable, "-I", "-S", "-c", _DIE_WITH_PARENT, *cmd]
 
 
 class _TermAsExit:
@@ -234,12 +242,10 @@ def run_povray(workdir: str, pov_text: str, name: str, args: list[str], timeout:
         f.write(pov_text)
     cmd = [exe, f"+I{name}.pov", f"+O{name}.png", "-D", "-P", "+V"] + list(args)
     t0 = time.perf_counter()
-    linux = sys.platform.startswith("linux")
     try:
         with _TermAsExit():
-            proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=timeout,
-                                  env={**os.environ, "HOME": workdir}, start_new_session=True,
-                                  preexec_fn=_die_with_parent if linux else None)
+            proc = subprocess.run(_die_with_parent(cmd), cwd=workdir, capture_output=True, text=True,
+                                  timeout=timeout, env={**os.environ, "HOME": workdir}, start_new_session=True)
     except subprocess.TimeoutExpired:
         raise RenderError(f"povray: rendering {name}.pov did not finish within timeout={timeout!r} s "
                           f"(command: {' '.join(cmd)})") from None
