@@ -21,6 +21,7 @@ EXTRAS = {
     "drjit": ("mitsuba", "mitsuba"),
     "dask": ("dask[distributed]", "dask"),
     "distributed": ("dask[distributed]", "dask"),
+    "poselib": ("poselib", "peers"),
 }
 
 

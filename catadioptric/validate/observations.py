@@ -22,7 +22,7 @@ import numpy as np
 
 from .._checks import CatadioptricError
 
-__all__ = ["LinePixels", "line_pixels", "ridge_pixels", "curve_pixels", "PIXEL_MODES"]
+__all__ = ["LinePixels", "line_pixels", "ridge_pixels", "curve_pixels", "label_near", "PIXEL_MODES"]
 
 PIXEL_MODES = ("curve", "ridge")
 
@@ -59,7 +59,7 @@ def ridge_pixels(labels: np.ndarray, label: int) -> np.ndarray:
     return np.stack([cols, rows], axis=1).astype(float)
 
 
-def _label_near(labels: np.ndarray, uv: np.ndarray, label: int) -> np.ndarray:
+def label_near(labels: np.ndarray, uv: np.ndarray, label: int) -> np.ndarray:
     """True where ``label`` covers a pixel centre within one pixel (3 x 3 neighbourhood) of ``uv``."""
     H, W = labels.shape
     c = np.rint(uv).astype(int)
@@ -92,7 +92,7 @@ def curve_pixels(curves: list, labels: np.ndarray, segment: int, label: int) -> 
             continue
         ok = c["visible"] & c["in_image"]
         if ok.any():
-            ok &= _label_near(labels, np.nan_to_num(c["uv"]), label)
+            ok &= label_near(labels, np.nan_to_num(c["uv"]), label)
         # visible runs
         edges = np.flatnonzero(np.diff(np.r_[0, ok.astype(np.int8), 0]))
         for a, b in zip(edges[::2], edges[1::2]):

@@ -21,7 +21,7 @@ import numpy as np
 from .._checks import CatadioptricError
 
 __all__ = ["evaluate_pair", "central_approximation", "central_model_error_px", "ENDS", "angle_between_deg",
-           "length_observable", "translation_text"]
+           "length_observable", "translation_text", "noise_rng"]
 
 ENDS = ("unknown", "given")
 _UNIFIED_CACHE: dict = {}
@@ -108,6 +108,14 @@ def _draw_pixels(base, rng, noise_px, max_pixels):
     return uv
 
 
+def noise_rng(seed, noise: float, draw: int):
+    """``(seed list, numpy Generator)`` of draw ``draw`` at ``noise`` pixels: the seed is
+    ``[*seed, round(1000 noise), draw]``, so each level and draw has its own stream (the label path's
+    draws, and the PoseLib peers' on the same pair, :mod:`.peers`)."""
+    draw_seed = [*np.atleast_1d(seed).tolist(), int(round(noise * 1000)), int(draw)]
+    return draw_seed, np.random.default_rng(draw_seed)
+
+
 def evaluate_pair(dataset, names, *, noise_levels=(2.0,), draws: int = 1, seed=0, pixels: str = "curve",
                   min_pixels: int = 30, max_pixels: int | None = None, ends: str = "unknown",
                   central: bool = True, decisive: float = 25.0) -> dict:
@@ -167,8 +175,7 @@ def _evaluate_pair(dataset, names, noise_levels, draws, seed, pixels, min_pixels
     for noise in noise_levels:
         # without added noise every draw would see the same pixels: one draw, not `draws` copies
         for k in range(draws if noise > 0 else 1):
-            draw_seed = [*np.atleast_1d(seed).tolist(), int(round(noise * 1000)), k]
-            rng = np.random.default_rng(draw_seed)
+            draw_seed, rng = noise_rng(seed, noise, k)
             uvs = [_draw_pixels(b, rng, noise, max_pixels) for b in base]
             rec = {"noise_px": noise, "draw": k, "seed": draw_seed}
             answers = {}
