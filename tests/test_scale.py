@@ -29,13 +29,22 @@ def _length(fit, ca, cb):
     return float(np.linalg.norm(fit.R @ ca + fit.t - cb))
 
 
-def test_exact_pixels_keep_the_free_fit(monkeypatch):
+@pytest.fixture(scope="module")
+def exact():
+    """The box scene's hyperbolic pair with exact pixels, its pose and every refine_two_view call
+    made for it (computed once: the tests below read them, none changes them)."""
+    with pytest.MonkeyPatch.context() as mp:
+        calls = _spy(mp)
+        va, vb, R_gt, t_gt = _pair("hyperboloid")
+        res = relative_pose(va, vb)
+    return va, vb, R_gt, t_gt, res, calls
+
+
+def test_exact_pixels_keep_the_free_fit(exact):
     """The far fit misses exact pixels by the rig's non-centrality: in units of the pixels' own
     noise (the free fit's estimate) nearly every pixel is beyond the cap of the common-ground
     cost, the gap is far beyond tau and the answer is the free fit (exact)."""
-    calls = _spy(monkeypatch)
-    va, vb, R_gt, t_gt = _pair("hyperboloid")
-    res = relative_pose(va, vb)
+    va, vb, R_gt, t_gt, res, calls = exact
     fit = res.candidates[0].fit
     n = len(calls[-1][2][7]) + len(calls[-1][2][9])
     assert not fit.scale_held and fit.far_gap > 0.9 * 3.5 ** 2 * n
@@ -123,21 +132,20 @@ def test_bad_arguments_are_named(kwargs, error, match):
                            [0, 1, 2], centres=(np.zeros(3), np.zeros(3)), **kwargs)
 
 
-def _exact_fit_and_pixels(monkeypatch):
+def _exact_fit_and_pixels(exact):
     """The exact two-view fit of the box scene's hyperbolic pair (exact pixels) and the pixels it
     was refined on: ``(fit, cam_a, cam_b, (uv_a, owner_a, uv_b, owner_b))``."""
-    calls = _spy(monkeypatch)
-    va, vb, R_gt, t_gt = _pair("hyperboloid")
-    fit = relative_pose(va, vb).candidates[0].fit
+    *_, res, calls = exact
+    fit = res.candidates[0].fit
     args = calls[-2][2]
     return fit, args[0], args[1], tuple(args[7:11])
 
 
-def test_pixel_distances_are_those_of_the_pixels_noise(monkeypatch):
+def test_pixel_distances_are_those_of_the_pixels_noise(exact):
     """On the exact fit, its inlier pixels lie on their lines' images (to 1e-6 px; the few pixels
     it left out, 80 of 4256, within 0.05 px); with Gaussian noise of 1 px added, each distance is
     the noise across the curve, whose median is 0.674 px."""
-    fit, cam_a, cam_b, (uv_a, own_a, uv_b, own_b) = _exact_fit_and_pixels(monkeypatch)
+    fit, cam_a, cam_b, (uv_a, own_a, uv_b, own_b) = _exact_fit_and_pixels(exact)
     d = scale_mod.pixel_distances(fit, cam_a, cam_b, uv_a, own_a, uv_b, own_b)
     inl = np.concatenate([fit.inliers_a, fit.inliers_b])
     assert d.shape == (len(uv_a) + len(uv_b),) and np.max(d[inl]) < 1e-6 and np.max(d) < 0.05
@@ -148,12 +156,12 @@ def test_pixel_distances_are_those_of_the_pixels_noise(monkeypatch):
     assert np.median(d) == pytest.approx(0.6745, rel=0.05)
 
 
-def test_common_gap_scores_both_fits_on_every_pixel(monkeypatch):
+def test_common_gap_scores_both_fits_on_every_pixel(exact):
     """A fit against itself: 0. A fit with one line moved 10 m away: each of that line's pixels
     costs the cap squared, the others nothing more (sigma given)."""
     from dataclasses import replace
 
-    fit, cam_a, cam_b, pix = _exact_fit_and_pixels(monkeypatch)
+    fit, cam_a, cam_b, pix = _exact_fit_and_pixels(exact)
     assert scale_mod.common_gap(fit, fit, cam_a, cam_b, *pix) == 0.0
     s = fit.directions[fit.line_family[0]]
     away = np.cross(s, [0.0, 0.0, 1.0]) if abs(s[2]) < 0.9 else np.cross(s, [1.0, 0.0, 0.0])
