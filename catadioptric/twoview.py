@@ -345,6 +345,8 @@ def _run(args) -> int:
     masks = (read_mask(args.mask, images[0].shape[:2], "--mask") if args.mask else None,
              read_mask(args.mask_b, images[1].shape[:2], "--mask-b") if args.mask_b else None)
     opts = {} if args.denoise is None else {"denoise": args.denoise}
+    if args.threshold is not None:
+        opts["threshold"] = args.threshold
     res = relative_pose_from_images(images[0], images[1], cam_a, cam_b, detect_options=opts,
                                     min_pixels=args.min_pixels, max_rotation_deg=args.max_rotation,
                                     decisive=args.decisive, decisive_matching=args.decisive_matching,
@@ -403,4 +405,7 @@ def register(sub) -> None:
                         "docs/relative_pose.md)")
     p.add_argument("--denoise", choices=["auto", "nlmeans", "bilateral", "none"],
                    help="denoising before the edges (default auto)")
+    p.add_argument("--threshold", type=positive_float, default=None, metavar="PX",
+                   help="the detector's distance of a line's pixels to its curve (default 1; 1.5 for a chessboard, "
+                        "whose edges break at every corner: docs/cameras.md)")
     p.set_defaults(func=_run)

@@ -42,11 +42,11 @@ def report(tmp_path_factory):
 def test_the_boards_axes_are_detected_families(report):
     rows = report["board_axes"]
     assert len(rows) == 2 * len(IMAGES)
-    # image 001 shows the board near (squares of about 40 px): both axes are families. In 002 it is far
-    # (squares of 15-20 px, each edge broken at every corner into pieces shorter than the detector's
-    # shortest chain): a known limit, reported as measured (docs/cameras.md)
-    near = [r for r in rows if r["image"] == IMAGES[0]]
-    assert len(near) == 2 and all(r["angle_deg"] < 1.0 for r in near), near
+    # with the board's options (validate.real.BOARD_OPTIONS) both axes of the near board (001, squares
+    # of about 40 px) and of the far one (002, squares of 15-20 px, each edge broken at every corner)
+    # are families; with the detector's defaults the far board's are not (a limit the report shows)
+    assert all(r["angle_deg"] < 1.0 for r in rows), rows
+    assert all(r["default_angle_deg"] < 1.0 for r in rows if r["image"] == IMAGES[0]), rows
 
 
 def test_the_static_camera_turns_by_nothing_and_does_not_move(report):
@@ -64,12 +64,14 @@ def test_the_static_camera_turns_by_nothing_and_does_not_move(report):
 
 def test_the_boards_motion_up_to_its_symmetries(report):
     (r,) = report["board_pairs"]
-    # never a wrong answer given as decisive: an error naming why (here: the far board's families are
-    # not the board's axes, docs/cameras.md), an ambiguous verdict, or a symmetric truth
-    if "failed" in r:
-        assert r["failed"].startswith("views:") and "\n" not in r["failed"]
-    elif not r["ambiguous"]:
+    # never a wrong answer given as decisive: an ambiguous verdict (a quarter turn of the board may lead
+    # its list: the far board's lines are found in part) or a symmetric truth
+    assert "failed" not in r, r
+    if not r["ambiguous"]:
         assert r["error_deg"] < 5.0, r
+    # and the right motion is listed: each view's board axes are families within 1 degree (the test
+    # above), so the rotation they give is within about 1 degree per view of a symmetric truth
+    assert min(c["error_deg"] for c in r["candidates"]) < 2.0, r["candidates"]
 
 
 def test_the_boards_absolute_pose_is_opencvs(report):
