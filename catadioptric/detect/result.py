@@ -60,7 +60,7 @@ class DetectedLines:
         of this view only, the estimator matches them across views) and no line ids. Lines with
         fewer than ``min_pixels`` pixels, and unassigned lines unless ``unassigned`` (then their
         family is None), are left out."""
-        from ..pose import ViewLines
+        from ..viewlines import ViewLines
 
         if not (isinstance(min_pixels, (int, np.integer)) and min_pixels >= 0):
             raise CatadioptricError(f"min_pixels: expected an integer >= 0, got {min_pixels!r}")

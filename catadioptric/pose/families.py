@@ -9,11 +9,12 @@ the family refitted, so one bad line cannot sink its family.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from .._checks import CatadioptricError, as_float_array
+from .._checks import CatadioptricError
+from ..viewlines import ViewLines  # below both detect (which produces it) and pose; re-exported here
 
 __all__ = ["ViewLines", "FamilyEstimate", "fit_view_families", "is_central", "rays_centre"]
 
@@ -34,40 +35,6 @@ def is_central(cam) -> bool:
     """True for a camera whose rays all pass through one viewpoint (an exact central rig, or a
     unified-model camera)."""
     return bool(getattr(cam, "is_central", True))
-
-
-@dataclass
-class ViewLines:
-    """The lines one view sees: ``uv[i] (M_i, 2)`` pixels of line i, ``family[i]`` its family (any
-    hashable key, the same key in both views for the same family), ``line_id[i]`` an id shared
-    with the other view for the same 3-D line, or None (unknown correspondence). ``cam``: the
-    view's camera (:class:`~catadioptric.cameras.CatadioptricCamera`, or a central
-    :class:`~catadioptric.unified.UnifiedCamera`)."""
-
-    cam: object
-    uv: list
-    family: list
-    line_id: list = field(default=None)
-
-    def __post_init__(self):
-        if not hasattr(self.cam, "backproject"):
-            raise CatadioptricError(f"cam: expected a camera with backproject(), got {type(self.cam).__name__}")
-        self.uv = [as_float_array(u, f"uv[{i}]", 2).reshape(-1, 2) for i, u in enumerate(self.uv)]
-        self.family = list(self.family)
-        if len(self.family) != len(self.uv):
-            raise CatadioptricError(f"family: expected one family per line ({len(self.uv)}), got {len(self.family)}")
-        if self.line_id is None:
-            self.line_id = [None] * len(self.uv)
-        self.line_id = list(self.line_id)
-        if len(self.line_id) != len(self.uv):
-            raise CatadioptricError(f"line_id: expected one id per line ({len(self.uv)}), got {len(self.line_id)}")
-
-    def families(self) -> dict:
-        """``{family: [line indices]}`` in the order of first appearance."""
-        out: dict = {}
-        for i, f in enumerate(self.family):
-            out.setdefault(f, []).append(i)
-        return out
 
 
 @dataclass
