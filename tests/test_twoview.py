@@ -24,13 +24,27 @@ def street(tmp_path_factory):
     return out, a, b, R_gt, b["pose"].t - R_gt @ a["pose"].t
 
 
+# The pose of the pair with the prior of 60 degrees, with and without the families of both images
+# (each computed once: several tests read the same answer; none of them changes it)
+@pytest.fixture(scope="module")
+def with_prior(street):
+    _, a, b, _, _ = street
+    return relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0)
+
+
+@pytest.fixture(scope="module")
+def with_prior_alone(street):
+    _, a, b, _, _ = street
+    return relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0, joint=False)
+
+
 def _angle(u, v):
     return np.degrees(np.arccos(np.clip(u @ v / np.linalg.norm(u) / np.linalg.norm(v), -1, 1)))
 
 
-def test_images_alone_give_the_rotation_with_a_motion_prior(street):
+def test_images_alone_give_the_rotation_with_a_motion_prior(street, with_prior):
     _, a, b, R_gt, t_gt = street
-    res = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0)
+    res = with_prior
     assert not res.pose.ambiguous
     assert rotation_angle_deg(res.pose.R @ R_gt.T) < 0.5
     assert len(res.family_map) >= 3
@@ -63,14 +77,13 @@ def test_matching_without_labels_has_its_own_margin(street):
         assert len(res.pose.candidates) >= 2
 
 
-def test_the_default_bar_grows_with_the_rival_assignments(street):
+def test_the_default_bar_grows_with_the_rival_assignments(with_prior):
     """Without ``decisive_matching`` the bar is that of the number of family assignments tried
     (:func:`catadioptric.pose.matching_bar`): on this pair, with the prior, at most 24 of them and a
     bar of 35; the notes give the margin and the bar."""
     import re
 
-    _, a, b, R_gt, _ = street
-    res = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0)
+    res = with_prior
     note = next(n for n in res.pose.notes if "matched without labels" in n)
     tried = int(re.search(r"(\d+) family assignments tried", note).group(1))
     bar = float(re.search(r"against a bar of ([\d.]+)", note).group(1))
@@ -188,13 +201,12 @@ def test_cli_errors_are_one_line(street, tmp_path, capsys):
     assert "--rig:" in capsys.readouterr().err
 
 
-def test_families_only_both_images_show(street):
+def test_families_only_both_images_show(street, with_prior, with_prior_alone):
     """After a decisive answer, lines no family of one image holds are grouped in both images at
     once under its rotation; on this pair that finds one more family, which is then matched
     (docs/relative_pose.md, 'Families only both images show')."""
     _, a, b, R_gt, _ = street
-    alone = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0, joint=False)
-    both = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0)
+    alone, both = with_prior_alone, with_prior
     assert not any("both views at once" in n for n in alone.pose.notes)
     assert any("both views at once" in n for n in both.pose.notes), both.pose.notes
     assert len(both.family_map) == len(alone.family_map) + 1
@@ -203,7 +215,7 @@ def test_families_only_both_images_show(street):
         assert not res.pose.ambiguous and rotation_angle_deg(res.pose.R @ R_gt.T) < 0.5
 
 
-def test_the_answer_with_families_of_both_images_must_agree_with_the_first(street, monkeypatch):
+def test_the_answer_with_families_of_both_images_must_agree_with_the_first(street, with_prior_alone, monkeypatch):
     """The families found in both images at once were found under the first answer's rotation: the
     pose estimated again with them is kept only within a few combined deviations of that answer
     (``_JOINT_AGREE_SIGMA``); beyond, the first answer stands and the notes say why. With the bound
@@ -211,7 +223,7 @@ def test_the_answer_with_families_of_both_images_must_agree_with_the_first(stree
     import catadioptric.twoview as tv
 
     _, a, b, R_gt, _ = street
-    alone = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0, joint=False)
+    alone = with_prior_alone
     monkeypatch.setattr(tv, "_JOINT_AGREE_SIGMA", 1e-9)
     res = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0)
     note = next(n for n in res.pose.notes if "both views at once" in n)
