@@ -113,7 +113,7 @@ def relative_pose_from_labels(dataset, view_a: str, view_b: str, *, noise_px: fl
     from .dataset import Dataset
     from .pose import ViewLines, rotation_angle_deg
     from .pose import relative_pose as from_lines
-    from .validate.observations import line_pixels
+    from .observations import line_pixels
 
     ds = dataset if isinstance(dataset, Dataset) else Dataset(dataset)
     for v in (view_a, view_b):

@@ -173,7 +173,7 @@ def f():
 # (``catadioptric/__init__.py``, the facade, loaded before any submodule) is not a unit.
 LAYERS = [
     ["_checks", "_io", "_numeric", "_pool"],
-    ["_data", "_extras", "curves", "frames", "mirrors", "solvers", "spectable", "viewlines"],
+    ["_data", "_extras", "curves", "frames", "mirrors", "observations", "solvers", "spectable", "viewlines"],
     ["projection", "render_presets"],  # projection: the solvers applied to a camera (duck-typed)
     ["lines", "vanishing"],
     ["cameras", "models"],  # the cameras' convenience methods call the layers below
@@ -194,8 +194,6 @@ LAYERS = [
 
 # Known upward imports, as (importing module, imported module): each is a debt to pay, not a licence.
 UPWARD_ALLOWED = {
-    # the label-to-pixels step (curve_pixels) should move below both detect and validate
-    ("catadioptric.detect.evaluate", "catadioptric.validate.observations"),
     # the centrality subcommand (its register/_run) sits in the geometry module; it belongs in a CLI module
     ("catadioptric.centrality", "catadioptric.cliargs"),
 }

@@ -9,7 +9,7 @@ import pytest
 from catadioptric._checks import CatadioptricError
 from catadioptric.cli import main
 from catadioptric.dataset import Dataset
-from catadioptric.validate.observations import curve_pixels, line_pixels, ridge_pixels
+from catadioptric.observations import curve_pixels, line_pixels, ridge_pixels
 
 
 @pytest.fixture(scope="module")

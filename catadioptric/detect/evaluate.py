@@ -2,7 +2,7 @@
 
 For a dataset view (:class:`catadioptric.DatasetView`): each labelled line's visible exact curve
 (``view["curves"]`` where the label image shows the line, one point per pixel of arc length:
-:func:`catadioptric.validate.observations.curve_pixels`) is the truth.
+:func:`catadioptric.observations.curve_pixels`) is the truth.
 
 * **Recovered** (per labelled line, and over all labelled pixels of the lines with at least
   ``min_label_pixels``): the fraction of its curve points within ``tolerance`` pixels of a pixel
@@ -43,7 +43,7 @@ __all__ = ["label_curves", "visible_curves", "evaluate_view"]
 def label_curves(view, min_points: int = 2) -> list[dict]:
     """The visible exact curve of every labelled line of ``view``: dicts with ``segment``,
     ``family``, ``label``, ``uv (M, 2)``."""
-    from ..validate.observations import curve_pixels
+    from ..observations import curve_pixels
 
     labels, curves = view["labels"], view["curves"]
     out = []

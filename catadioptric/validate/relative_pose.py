@@ -141,7 +141,7 @@ def _evaluate_pair(dataset, names, noise_levels, draws, seed, pixels, min_pixels
     from ..dataset import Dataset
     from ..pose import ViewLines, choose_model, relative_pose
     from ..pose.families import rays_centre
-    from .observations import line_pixels
+    from ..observations import line_pixels
 
     ds = dataset if isinstance(dataset, Dataset) else Dataset(dataset)
     if len(names) != 2:
@@ -289,7 +289,7 @@ def pair_figure(res: dict, dataset):
     import matplotlib.pyplot as plt
 
     from ..dataset import Dataset
-    from .observations import line_pixels
+    from ..observations import line_pixels
 
     ds = dataset if isinstance(dataset, Dataset) else Dataset(dataset)
     fig, axes = plt.subplots(1, 2, figsize=(12.8, 5.0), dpi=100)
