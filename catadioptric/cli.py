@@ -12,7 +12,7 @@ from .cliargs import Parser, print_error
 # modules that define ``register(subparsers)``; each adds its subcommand(s)
 SUBCOMMAND_MODULES = [
     "catadioptric.demo",
-    "catadioptric.centrality",
+    "catadioptric.cli_centrality",
     "catadioptric.render.cli",
     "catadioptric.validate.cli",
     "catadioptric.export",
