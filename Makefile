@@ -4,6 +4,8 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
+# the tests: one worker per core, whole modules at a time, the longest first (tests/conftest.py)
+XDIST := -n auto --dist loadfile --no-loadscope-reorder
 
 .PHONY: demo test bench system-deps venv clean
 
@@ -23,7 +25,7 @@ demo: system-deps venv
 	$(VENV)/bin/catadioptric demo --out out/demo
 
 test: system-deps venv
-	$(PY) -m pytest -q -p no:cacheprovider
+	$(PY) -m pytest -q -p no:cacheprovider $(XDIST)
 
 bench: venv
 	$(PY) bench/run.py
