@@ -136,6 +136,10 @@ def test_the_command_writes_its_report(tiny, tmp_path, capsys):
     (["--views", "A", "Q"], "--views", "unknown ['Q']"),
     (["--views", "A", "A"], "--views", "two different views, got 'A' twice"),
     (["--spacing", "0"], "--spacing", "expected a positive number"),
+    (["--workers", "2"], "--workers", "only with --spec"),
+    (["--only", "sphere:0", "--views", "A", "B"], "--views", "named by --only"),
+    (["--only", "nowhere:0", "--spec", os.path.join(os.path.dirname(__file__), "..", "validate", "relative_pose.toml")],
+     "--only", "expected CONFIG:PAIR"),
 ])
 def test_bad_input_is_one_line(tiny, tmp_path, capsys, argv, flag, says):
     line = fails(["validate", "peers", "--data", tiny, "--out", str(tmp_path / "o"), *argv], capsys)
