@@ -90,7 +90,7 @@ class PointPairs:
 def _seen(view, X_W, label):
     """Pixels of the world points ``X_W`` in ``view`` and where the line ``label`` shows there: the
     first image of each point on the image, its label within one pixel (the occluded are not)."""
-    from .observations import label_near
+    from ..observations import label_near
 
     pr = view["camera"].project(view["pose"].to_mirror(X_W))
     uv = pr.uv[:, 0]
@@ -109,11 +109,11 @@ def _arc(uv, ok):
 def point_pairs(va, vb, *, spacing: float = SPACING_PX, min_pixels: int = 30) -> PointPairs:
     """Exact point correspondences on the labelled lines both views ``va``, ``vb`` see (dataset
     views): each line with at least ``min_pixels`` pixels in both (as the label path's lines,
-    :func:`catadioptric.validate.observations.line_pixels`) is sampled finely along its 3-D segment,
+    :func:`catadioptric.observations.line_pixels`) is sampled finely along its 3-D segment,
     each sample projected into both views by the exact camera and kept where the line shows in both
     (on the image, its label within one pixel); along each run kept, one point every ``spacing``
     pixels of arc (the mean of the two views'), the first half a spacing in."""
-    from .observations import line_pixels
+    from ..observations import line_pixels
 
     if not (np.isfinite(spacing) and spacing > 0):
         raise CatadioptricError(f"spacing: expected a positive number of pixels, got {spacing!r}")
