@@ -32,19 +32,22 @@ ROOT = os.path.dirname(HERE)
 
 
 def _with_options(tol, warm, settle, fn, *args, **kw):
-    """``fn(*args, **kw)`` with the refinement's ``tol_chi2``, ``warm_start`` and ``settle_depths``
-    keyword defaults set."""
-    from catadioptric.pose import bundle
+    """``fn(*args, **kw)`` with every two-view refinement (those of ``pose.scale.refine_far_or_free``)
+    run with ``tol_chi2``, ``warm_start`` and ``settle_depths`` set in its options."""
+    from dataclasses import replace
 
-    defaults = bundle.refine_two_view.__kwdefaults__
-    old = dict(defaults)
-    defaults["tol_chi2"] = float(tol)
-    defaults["warm_start"] = bool(warm)
-    defaults["settle_depths"] = bool(settle)
+    from catadioptric.pose import bundle, scale
+
+    def refine(data, start, options=bundle.TwoViewOptions()):
+        return bundle.refine_two_view(data, start, replace(options, tol_chi2=float(tol), warm_start=bool(warm),
+                                                           settle_depths=bool(settle)))
+
+    real = scale.refine_two_view
+    scale.refine_two_view = refine
     try:
         return fn(*args, **kw)
     finally:
-        defaults.update(old)
+        scale.refine_two_view = real
 
 
 def _variants(tols, cold, settle):

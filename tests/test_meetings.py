@@ -87,12 +87,17 @@ def test_the_meetings_give_the_refinement_the_translation_s_direction(seed, monk
 def test_a_held_scale_is_freed_where_the_pixels_fix_it(monkeypatch):
     """``hold_scale``: with exact pixels the scale is observed, so it is freed after the polish and
     the pose comes out exact."""
-    from catadioptric.pose import bundle, relative_pose, rotation_angle_deg
+    from dataclasses import replace
+
+    from catadioptric.pose import bundle, relative_pose, rotation_angle_deg, scale
 
     from test_relative_pose import _pair
 
     va, vb, R_gt, t_gt = _pair("hyperboloid")
-    monkeypatch.setitem(bundle.refine_two_view.__kwdefaults__, "hold_scale", True)
+    # every refinement holds the scale (the far fit's release_scale=0 stays its own)
+    monkeypatch.setattr(scale, "refine_two_view",
+                        lambda data, start, options: bundle.refine_two_view(data, start,
+                                                                            replace(options, hold_scale=True)))
     res = relative_pose(va, vb)
     assert np.radians(rotation_angle_deg(res.R @ R_gt.T)) < 1e-9
     assert np.linalg.norm(res.t - t_gt) < 1e-9

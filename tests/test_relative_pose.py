@@ -89,7 +89,7 @@ def test_exact_pixels_give_the_exact_pose(name, tol_rad, tol_m):
     va, vb, R_gt, t_gt = _pair(name)
     res = relative_pose(va, vb)
     assert res.model == "non-central" and res.metric and not res.ambiguous
-    k = np.sqrt(bundle.refine_two_view.__kwdefaults__["tol_chi2"]) * 0.1 / res.sigma_px
+    k = np.sqrt(bundle.TwoViewOptions().tol_chi2) * 0.1 / res.sigma_px
     dr, dt = np.radians(rotation_angle_deg(res.R @ R_gt.T)), np.linalg.norm(res.t - t_gt)
     assert dr < k * np.sqrt(np.linalg.eigvalsh(res.cov[:3, :3]).max()), dr
     assert dt < k * np.sqrt(np.trace(res.cov[3:, 3:])), dt
@@ -294,10 +294,16 @@ def test_images_continued_between_steps_give_the_searched_answer(name, monkeypat
     rotation's deviation, the sphere's translation 2e-6 of its (poorly observed) scale's."""
     from catadioptric.pose import bundle
 
-    bound = 2.0 * np.sqrt(bundle.refine_two_view.__kwdefaults__["tol_chi2"])
+    from dataclasses import replace
+
+    from catadioptric.pose import scale
+
+    bound = 2.0 * np.sqrt(bundle.TwoViewOptions().tol_chi2)
     va, vb, R_gt, t_gt = _pair(name, noise=1.0, seed=4)
     warm = relative_pose(va, vb)
-    monkeypatch.setitem(bundle.refine_two_view.__kwdefaults__, "warm_start", False)
+    monkeypatch.setattr(scale, "refine_two_view",
+                        lambda data, start, options: bundle.refine_two_view(data, start,
+                                                                            replace(options, warm_start=False)))
     cold = relative_pose(va, vb)
     r_sd = np.sqrt(np.linalg.eigvalsh(warm.cov[:3, :3]).max())
     dr = np.radians(rotation_angle_deg(warm.R @ cold.R.T))

@@ -1,24 +1,27 @@
 """The scene's scale in the two-view refinement (catadioptric.pose.scale): the free fit where the
 pixels tell the scale, otherwise the fit with the scene held far, scaled to the free fit's length."""
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from catadioptric._checks import CatadioptricError
 from catadioptric.pose import relative_pose, rotation_angle_deg
 from catadioptric.pose import scale as scale_mod
-from catadioptric.pose.scale import FAR, refine_far_or_free
+from catadioptric.pose.bundle import TwoViewData, TwoViewOptions, TwoViewStart
+from catadioptric.pose.scale import FAR, ScaleOptions, refine_far_or_free
 
 from test_relative_pose import _pair
 
 
 def _spy(monkeypatch):
-    """Record every refine_two_view call refine_far_or_free makes: (kwargs, fit)."""
+    """Record every refine_two_view call refine_far_or_free makes: (options, fit, data, start)."""
     calls = []
     real = scale_mod.refine_two_view
 
-    def spy(*args, **kwargs):
-        fit = real(*args, **kwargs)
-        calls.append((dict(kwargs), fit, args))
+    def spy(data, start, options):
+        fit = real(data, start, options)
+        calls.append((options, fit, data, start))
         return fit
 
     monkeypatch.setattr(scale_mod, "refine_two_view", spy)
@@ -46,14 +49,14 @@ def test_exact_pixels_keep_the_free_fit(exact):
     cost, the gap is far beyond tau and the answer is the free fit (exact)."""
     va, vb, R_gt, t_gt, res, calls = exact
     fit = res.candidates[0].fit
-    n = len(calls[-1][2][7]) + len(calls[-1][2][9])
+    n = len(calls[-1][2].uv_a) + len(calls[-1][2].uv_b)
     assert not fit.scale_held and fit.far_gap > 0.9 * 3.5 ** 2 * n
     assert np.radians(rotation_angle_deg(res.R @ R_gt.T)) < 1e-9 and np.linalg.norm(res.t - t_gt) < 1e-9
     # both fits were made: the free one, then the far one held at FAR mirror sizes
-    held = [(kw, f, a) for kw, f, a in calls if kw.get("hold_scale")]
+    held = [(o, f, d) for o, f, d, _ in calls if o.hold_scale]
     assert held and len(calls) == 2 * len(held)
-    kw, f, _ = held[0]
-    ca, cb = kw["centres"]
+    _, f, data = held[0]
+    ca, cb = data.centres
     assert _length(f, ca, cb) == pytest.approx(FAR * va.cam.mirror.scale, rel=1e-12)
 
 
@@ -66,9 +69,9 @@ def test_the_far_fit_is_scaled_to_the_free_fit_s_length(monkeypatch):
     res = relative_pose(va, vb)
     fit = res.candidates[0].fit
     assert fit.scale_held and fit.far_gap < -scale_mod.TAU
-    (kw_free, free, _), (kw_held, held, _) = calls[-2:]
-    assert kw_held.get("hold_scale") and not kw_free.get("hold_scale")
-    ca, cb = kw_held["centres"]
+    (o_free, free, _, _), (o_held, held, data_held, _) = calls[-2:]
+    assert o_held.hold_scale and not o_free.hold_scale
+    ca, cb = data_held.centres
     assert np.array_equal(fit.R, held.R)
     assert _length(fit, ca, cb) == pytest.approx(_length(free, ca, cb), rel=1e-12)
     # the baseline's direction is the far fit's
@@ -96,14 +99,14 @@ def test_a_gap_with_the_length_unknown_keeps_the_far_fit(monkeypatch):
     monkeypatch.setattr(scale_mod, "common_gap", lambda *a, **k: 1e6)
     calls = _spy(monkeypatch)
     fit = relative_pose(va, vb).candidates[0].fit
-    (_, free, _), (_, held, _) = calls[-2:]
+    (_, free, _, _), (_, held, _, _) = calls[-2:]
     assert fit.far_gap == 1e6 and fit.scale_std > 40.0 > scale_mod.MAX_SCALE_STD
     assert fit.scale_held and np.array_equal(fit.R, held.R)
     real = scale_mod.refine_far_or_free
     monkeypatch.setattr("catadioptric.pose.relative.refine_far_or_free",
-                        lambda *a, **k: real(*a, max_scale_std=1e3, **k))
+                        lambda data, start, options: real(data, start, replace(options, max_scale_std=1e3)))
     fit = relative_pose(va, vb).candidates[0].fit
-    (_, free, _), _ = calls[-2:]
+    (_, free, _, _), _ = calls[-2:]
     assert not fit.scale_held and np.array_equal(fit.R, free.R)
 
 
@@ -118,18 +121,27 @@ def test_the_bar_on_the_length_is_the_gap_s_level():
     assert chi2.sf(scale_mod.TAU, 1) == pytest.approx(0.01, abs=1e-4)
 
 
-@pytest.mark.parametrize("kwargs, error, match", [
-    ({"far": 0.0}, CatadioptricError, r"far: expected a positive number, got 0\.0"),
-    ({"tau": -1.0}, CatadioptricError, r"tau: expected a cost difference of at least 0, got -1\.0"),
-    ({"max_scale_std": 0.0}, CatadioptricError, r"max_scale_std: expected a positive number, got 0\.0"),
-    ({"hold_scale": True}, TypeError, "hold_scale is set by the function itself"),
-    ({"release_scale": 0.1}, TypeError, "release_scale is set by the function itself"),
+@pytest.mark.parametrize("options, match", [
+    (ScaleOptions(far=0.0), r"far: expected a positive number, got 0\.0"),
+    (ScaleOptions(tau=-1.0), r"tau: expected a cost difference of at least 0, got -1\.0"),
+    (ScaleOptions(max_scale_std=0.0), r"max_scale_std: expected a positive number, got 0\.0"),
+    (ScaleOptions(refine=TwoViewOptions(hold_scale=True)), "options.refine.hold_scale: set by refine_far_or_free itself"),
+    (ScaleOptions(refine=TwoViewOptions(release_scale=0.1)),
+     "options.refine.release_scale: set by refine_far_or_free itself"),
 ])
-def test_bad_arguments_are_named(kwargs, error, match):
+def test_bad_arguments_are_named(options, match):
     z = np.zeros((3, 3))
-    with pytest.raises(error, match=match):
-        refine_far_or_free(None, None, np.eye(3), np.zeros(3), z, z, [0, 1, 2], z[:, :2], [0, 1, 2], z[:, :2],
-                           [0, 1, 2], centres=(np.zeros(3), np.zeros(3)), **kwargs)
+    data = TwoViewData(None, None, z[:, :2], [0, 1, 2], z[:, :2], [0, 1, 2], [0, 1, 2],
+                       centres=(np.zeros(3), np.zeros(3)))
+    with pytest.raises(CatadioptricError, match=match):
+        refine_far_or_free(data, TwoViewStart(np.eye(3), np.zeros(3), z, z), options)
+
+
+def test_the_centres_are_required():
+    z = np.zeros((3, 3))
+    data = TwoViewData(None, None, z[:, :2], [0, 1, 2], z[:, :2], [0, 1, 2], [0, 1, 2])
+    with pytest.raises(CatadioptricError, match=r"data.centres: expected \(c_A, c_B\)"):
+        refine_far_or_free(data, TwoViewStart(np.eye(3), np.zeros(3), z, z))
 
 
 def _exact_fit_and_pixels(exact):
@@ -137,8 +149,8 @@ def _exact_fit_and_pixels(exact):
     was refined on: ``(fit, cam_a, cam_b, (uv_a, owner_a, uv_b, owner_b))``."""
     *_, res, calls = exact
     fit = res.candidates[0].fit
-    args = calls[-2][2]
-    return fit, args[0], args[1], tuple(args[7:11])
+    d = calls[-2][2]
+    return fit, d.cam_a, d.cam_b, (d.uv_a, d.owner_a, d.uv_b, d.owner_b)
 
 
 def test_pixel_distances_are_those_of_the_pixels_noise(exact):
@@ -187,8 +199,10 @@ def test_a_start_far_too_long_keeps_every_line_in_front_of_both_views(monkeypatc
     monkeypatch.setattr(relative_mod, "scale_by_search", lambda *a, **k: 64.0)
     va, vb, R_gt, t_gt = _pair("hyperboloid", noise=1.0, seed=4)
     relative_pose(va, vb)
-    kw, fit, args = next(c for c in calls if not c[0].get("hold_scale"))
-    cam_a, cam_b, R0, t0, dirs0, points0, fam, uv_a, own_a, uv_b, own_b = args
+    _, fit, data, start = next(c for c in calls if not c[0].hold_scale)
+    cam_a, cam_b, uv_a, own_a, uv_b, own_b, fam = (data.cam_a, data.cam_b, data.uv_a, data.owner_a, data.uv_b,
+                                                   data.owner_b, data.line_family)
+    R0, t0, dirs0, points0 = start.R, start.t, start.directions, start.points
     behind = []
     for line in range(len(points0)):
         s = dirs0[fam[line]]

@@ -11,8 +11,8 @@ between two views ``x_B = R x_A + t`` (mirror frames). Lines are Pluecker ``(s, 
 | `sign_candidates` | `signs.py` | directions known up to sign | the sign patterns a rotation fits, refined |
 | `translation_from_lines` | `translation.py` | R, world lines, rays of their pixels | t (absolute pose) |
 | `relative_translation_from_lines` | `translation.py` | R, lines fitted in each view, rays of both | t (metric, non-central) |
-| `refine_two_view` | `bundle.py` (its unknowns and residuals: `two_view_problem.py`) | R, t, lines, pixels of both views | R, t, lines, covariance (non-central) |
-| `refine_far_or_free` | `scale.py` | as `refine_two_view` | its fit with the scene held far (the rig's central limit), or free where the pixels fix the scale |
+| `refine_two_view` | `bundle.py` (its unknowns and residuals: `two_view_problem.py`) | `TwoViewData` (cameras, pixels of both views, their lines' families), `TwoViewStart` (R, t, lines), `TwoViewOptions` | R, t, lines, covariance (non-central) |
+| `refine_far_or_free` | `scale.py` | as `refine_two_view`, `ScaleOptions` | its fit with the scene held far (the rig's central limit), or free where the pixels fix the scale |
 | `translation_direction_from_crossings` | `central.py` | R, planes of the lines matched in both views | direction between the views' centres |
 | `refine_with_crossings` | `epipolar.py` | directions with covariances, inlier meeting rays, R | R and the direction between the centres refined together, covariance |
 | `family_matches` | `matching.py` | each view's families (unmatched) | the assignments of B's families to A's a rotation allows |
@@ -26,14 +26,14 @@ See docs/relative_pose.md.
 """
 from __future__ import annotations
 
-from .bundle import TwoViewFit, refine_two_view
+from .bundle import TwoViewData, TwoViewFit, TwoViewOptions, TwoViewStart, refine_two_view
 from .chessboard import ChessboardPose, chessboard_pose, compare_board_poses
 from .central import CrossingFit, translation_direction_from_crossings
 from .epipolar import EpipolarFit, refine_with_crossings
 from .families import FamilyEstimate, ViewLines, fit_view_families
 from .matching import FamilyMatch, LineMatch, family_matches, match_lines
 from .relative import MATCHING_BARS, Candidate, RelativePose, matching_bar, relative_pose
-from .scale import refine_far_or_free
+from .scale import ScaleOptions, refine_far_or_free
 from .select import ModelChoice, choose_model
 from .rotation import DirectionRotation, refine_rotation, rotation_angle_deg, rotation_from_directions
 from .signs import SignCandidate, sign_candidates
@@ -42,7 +42,8 @@ from .translation import relative_translation_from_lines, translation_from_lines
 __all__ = [
     "rotation_from_directions", "rotation_angle_deg", "refine_rotation", "DirectionRotation",
     "sign_candidates", "SignCandidate", "translation_from_lines", "relative_translation_from_lines",
-    "refine_two_view", "TwoViewFit", "refine_far_or_free", "translation_direction_from_crossings", "CrossingFit",
+    "refine_two_view", "TwoViewData", "TwoViewStart", "TwoViewOptions", "TwoViewFit", "refine_far_or_free",
+    "ScaleOptions", "translation_direction_from_crossings", "CrossingFit",
     "refine_with_crossings", "EpipolarFit",
     "ViewLines", "FamilyEstimate", "fit_view_families", "relative_pose", "RelativePose", "Candidate",
     "matching_bar", "MATCHING_BARS",

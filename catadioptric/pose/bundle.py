@@ -20,7 +20,72 @@ from ._kernels import reduced_normal_equations
 from .meetings import check_corners
 from .two_view_problem import MU_MAX, Problem
 
-__all__ = ["TwoViewFit", "refine_two_view"]
+__all__ = ["TwoViewData", "TwoViewStart", "TwoViewOptions", "TwoViewFit", "refine_two_view"]
+
+
+@dataclass(frozen=True)
+class TwoViewData:
+    """What a two-view refinement explains: the cameras ``cam_a``, ``cam_b``, the pixels
+    ``uv_a (Na, 2)`` with ``owner_a (Na,)`` (the line each pixel images), likewise for B, and
+    ``line_family (L,)``: each line's family (an index into the start's directions).
+
+    ``centres``: ``(c_A, c_B)``, each view's point nearest its rays (None: from the pixels' rays).
+    ``corners (K, 2)``: pairs of lines (indices into the lines, of different families) whose
+    meeting rays were inliers of stage 1's translation
+    (:func:`~catadioptric.pose.central.translation_direction_from_crossings`), each with the
+    deviation ``corner_sigma (K,)`` of its epipolar residual there (None: no meetings;
+    :func:`refine_two_view` says how they are used)."""
+
+    cam_a: object
+    cam_b: object
+    uv_a: np.ndarray
+    owner_a: np.ndarray
+    uv_b: np.ndarray
+    owner_b: np.ndarray
+    line_family: np.ndarray
+    centres: tuple | None = None
+    corners: np.ndarray | None = None
+    corner_sigma: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class TwoViewStart:
+    """Where a two-view refinement starts: ``x_B = R x_A + t`` (metres), the families'
+    ``directions (F, 3)`` in A and a point of each line in A, ``points (L, 3)``."""
+
+    R: np.ndarray
+    t: np.ndarray
+    directions: np.ndarray
+    points: np.ndarray
+
+
+@dataclass(frozen=True, kw_only=True)
+class TwoViewOptions:
+    """How :func:`refine_two_view` refines (its docstring has the figures behind each default)."""
+
+    #: the pixel scale of the robust stage (pixels; its Cauchy loss's ``c2`` is in units of it)
+    sigma_cost: float = 1.0
+    #: known pixel noise for the inliers and the covariance (None: estimated from the inliers)
+    pixel_sigma: float | None = None
+    #: the first stage robust (Cauchy); False: plain least squares there too
+    robust: bool = True
+    #: the Cauchy loss's scale, squared, in units of ``sigma_cost``
+    c2: float = 9.0
+    #: the robust stage's steps at most (the polish stops when both have taken twice this)
+    max_iter: int = 50
+    #: inliers after the robust stage: pixels (and meetings) within this many deviations
+    inlier_sigmas: float = 3.5
+    #: each stage stops when a step lowers its cost by less than this (chi-square units)
+    tol_chi2: float = 0.01
+    #: each step's images continued from the last accepted state's reflection points (False:
+    #: every image searched anew each time, slower)
+    warm_start: bool = True
+    #: each trial step judged at its depths re-solved (slower, not better on the benchmark)
+    settle_depths: bool = False
+    #: both stages hold the scene's scale where the start's translation puts it
+    hold_scale: bool = False
+    #: a held scale is freed after the polish when the deviation of its logarithm is below this
+    release_scale: float = 0.05
 
 
 
@@ -218,18 +283,12 @@ def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter, tol_chi2, settle=False,
     return R, y, mu, cost, it
 
 
-def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, owner_a, uv_b, owner_b, *,
-                    centres=None, sigma_cost: float = 1.0, pixel_sigma: float | None = None, robust: bool = True,
-                    c2: float = 9.0, max_iter: int = 50, inlier_sigmas: float = 3.5,
-                    tol_chi2: float = 0.01, warm_start: bool = True, settle_depths: bool = False,
-                    hold_scale: bool = False, release_scale: float = 0.05, corners=None,
-                    corner_sigma=None) -> TwoViewFit:
+def refine_two_view(data: TwoViewData, start: TwoViewStart, options: TwoViewOptions = TwoViewOptions()) -> TwoViewFit:
     """Refine ``x_B = R x_A + t`` and the lines jointly from the pixels of both views.
 
-    ``dirs0 (F, 3)``: starting family directions in A; ``points0 (L, 3)``: a starting point of
-    each line in A, ``line_family (L,)`` its family; ``uv_a (Na, 2)`` with ``owner_a (Na,)`` (the
-    line each pixel images), likewise for B. ``centres``: ``(c_A, c_B)``, each view's point nearest
-    its rays (default: from the pixels' rays). ``sigma_cost``: the pixel scale of the robust
+    ``data``: the cameras, pixels, their lines and the lines' families (:class:`TwoViewData`);
+    ``start``: the pose, family directions and a point of each line (:class:`TwoViewStart`);
+    ``options``: :class:`TwoViewOptions`, whose fields are these. ``sigma_cost``: the pixel scale of the robust
     stage (Cauchy, ``c2`` in units of it); ``pixel_sigma``: known pixel noise for the covariance
     (default: estimated from the inliers). Inliers after the robust stage: pixels within
     ``inlier_sigmas`` times the robust noise estimate (or ``pixel_sigma``); then a plain
@@ -247,7 +306,7 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     p = 0.19) and it takes 0.99-1.74x the time (``bench/bench_refinement.py --settle``), so off by
     default.
 
-    ``corners (K, 2)``: pairs of lines (indices into ``points0``, of different families) whose
+    ``data.corners (K, 2)``: pairs of lines (indices into ``start.points``, of different families) whose
     meeting rays were inliers of stage 1's translation
     (:func:`~catadioptric.pose.central.translation_direction_from_crossings`), each with the
     deviation ``corner_sigma (K,)`` of its epipolar residual there: the rays from each view's
@@ -260,7 +319,7 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     the pixels' alone (candidates with different meetings are ranked by their pixels).
 
     ``hold_scale``: both stages hold the scene's scale (the baseline's length with every line's
-    distance) where ``t0`` puts it, and free it after the polish only if the pixels fix it
+    distance) where ``start.t`` puts it, and free it after the polish only if the pixels fix it
     (deviation of its logarithm below ``release_scale``). :func:`~catadioptric.pose.relative_pose`
     holds it through :func:`~catadioptric.pose.scale.refine_far_or_free`, with the scene moved
     far away and ``release_scale=0``, and compares that fit with the free one. Held where the
@@ -268,21 +327,24 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     hyperbolic pairs 0-19 at 2 px 0.143 degree (0.291 free), but on the box scene of
     tests/test_relative_pose.py at 1 px, held at 64 m, 1.24 degree (0.07 free).
     """
-    uv_a = np.asarray(uv_a, float).reshape(-1, 2)
-    uv_b = np.asarray(uv_b, float).reshape(-1, 2)
-    owner_a = np.asarray(owner_a, int).reshape(-1)
-    owner_b = np.asarray(owner_b, int).reshape(-1)
+    o = options
+    cam_a, cam_b, line_family = data.cam_a, data.cam_b, data.line_family
+    uv_a = np.asarray(data.uv_a, float).reshape(-1, 2)
+    uv_b = np.asarray(data.uv_b, float).reshape(-1, 2)
+    owner_a = np.asarray(data.owner_a, int).reshape(-1)
+    owner_b = np.asarray(data.owner_b, int).reshape(-1)
     if len(uv_b) < 3:
         raise CatadioptricError(f"uv_b: expected pixels of lines seen in both views, got {len(uv_b)}")
     uv = np.concatenate([uv_a, uv_b])
     owner = np.concatenate([owner_a, owner_b])
     view = np.concatenate([np.zeros(len(uv_a), int), np.ones(len(uv_b), int)])
+    centres = data.centres
     if centres is None:
         centres = (_rays_centre(cam_a, uv_a), _rays_centre(cam_b, uv_b))
-    corners, corner_sigma = check_corners(corners, corner_sigma, np.asarray(line_family, int).reshape(-1))
-    R = np.asarray(R0, float)
-    pb = Problem(cam_a, cam_b, np.asarray(dirs0, float), np.asarray(points0, float), line_family, uv, owner, view,
-                 centres, R, t0, warm_start, corners, corner_sigma)
+    corners, corner_sigma = check_corners(data.corners, data.corner_sigma, np.asarray(line_family, int).reshape(-1))
+    R = np.asarray(start.R, float)
+    pb = Problem(cam_a, cam_b, np.asarray(start.directions, float), np.asarray(start.points, float), line_family, uv,
+                 owner, view, centres, R, start.t, o.warm_start, corners, corner_sigma)
     y = pb.start()
     # starting depths: each pixel's ray closest to its line (B's rays moved into A)
     s, _, _, rho, u, _, _, k = pb.parts(y)
@@ -298,11 +360,12 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     lam0 = (bb * np.sum(rays_d * w0, 1) - np.sum(sl * w0, 1)) / np.maximum(1 - bb * bb, 1e-12)
     mu = np.clip(lam0 * rho[owner] / k, -MU_MAX, MU_MAX)
     mask = np.ones(len(uv), dtype=bool)
-    R, y, mu, cost, it1 = _lm(pb, R, y, mu, sigma_cost, c2, robust, mask, max_iter, tol_chi2, settle_depths,
-                              hold_scale)
+    sigma_cost, c2, pixel_sigma, inlier_sigmas = o.sigma_cost, o.c2, o.pixel_sigma, o.inlier_sigmas
+    R, y, mu, cost, it1 = _lm(pb, R, y, mu, sigma_cost, c2, o.robust, mask, o.max_iter, o.tol_chi2, o.settle_depths,
+                              o.hold_scale)
     e, _, _ = pb.evaluate(R, y, mu, jac=False)
     if len(pb.corners):
-        cost = _weights(e, sigma_cost, c2, robust, mask)[1]
+        cost = _weights(e, sigma_cost, c2, o.robust, mask)[1]
     dist = np.linalg.norm(e, axis=1)
     fin = np.isfinite(dist)
     if pixel_sigma is not None:
@@ -318,14 +381,14 @@ def refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, own
     if inl[view == 1].sum() < 3:
         inl = fin
     # with exact pixels the polish goes on to the last digits
-    tol_polish = tol_chi2 * min(1.0, noise / sigma_cost) ** 2
-    R, y, mu, _, it2 = _lm(pb, R, y, mu, noise, c2, False, inl, 2 * max_iter - it1, tol_polish, settle_depths,
-                           hold_scale, cmask)
+    tol_polish = o.tol_chi2 * min(1.0, noise / sigma_cost) ** 2
+    R, y, mu, _, it2 = _lm(pb, R, y, mu, noise, c2, False, inl, 2 * o.max_iter - it1, tol_polish, o.settle_depths,
+                           o.hold_scale, cmask)
     S, sigma, dist, inl = _information(pb, R, y, mu, inl, cmask, c2, pixel_sigma)
     cov_y = _covariance(S, sigma)
-    if hold_scale and np.sqrt(cov_y[5, 5]) < release_scale:
+    if o.hold_scale and np.sqrt(cov_y[5, 5]) < o.release_scale:
         # the pixels fix the scale: freed, where Levenberg-Marquardt no longer crawls along a valley
-        R, y, mu, _, it3 = _lm(pb, R, y, mu, noise, c2, False, inl, 2 * max_iter, tol_polish, settle_depths,
+        R, y, mu, _, it3 = _lm(pb, R, y, mu, noise, c2, False, inl, 2 * o.max_iter, tol_polish, o.settle_depths,
                                False, cmask)
         it2 += it3
         S, sigma, dist, inl = _information(pb, R, y, mu, inl, cmask, c2, pixel_sigma)

@@ -29,13 +29,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._checks import CatadioptricError, as_scalar
-from .bundle import TwoViewFit
+from .bundle import TwoViewData, TwoViewFit, TwoViewOptions, TwoViewStart
 from .central import (CrossingFit, Parallax, meeting_rays, parallax, residual_weights, rotation_twins,
                       translation_direction_from_crossings)
 from .epipolar import refine_with_crossings
 from .families import FamilyEstimate, ViewLines, fit_view_families, is_central
 from .rotation import rotation_angle_deg
-from .scale import refine_far_or_free, scale_by_search
+from .scale import ScaleOptions, refine_far_or_free, scale_by_search
 from .signs import sign_candidates
 from .translation import ray_depths, triangulate_line
 
@@ -299,10 +299,12 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, s
             uv_b.append(_pixels_of(vb, eb[key], kb, max_pixels))
             own_b.append(np.full(len(uv_b[-1]), li))
     corners, corner_sigma = _corners(meeting, crossing, R, t_dir, lines, va, ea)
-    fit = refine_far_or_free(va.cam, vb.cam, R, t0, dirs_a, np.array(pts), np.array([fam_index[k] for k, _, _ in lines]),
-                             np.concatenate(uv_a), np.concatenate(own_a), np.concatenate(uv_b), np.concatenate(own_b),
-                             centres=(ea[keys[0]].centre, eb[keys[0]].centre), sigma_cost=sigma_cost,
-                             pixel_sigma=pixel_sigma, corners=corners, corner_sigma=corner_sigma)
+    data = TwoViewData(va.cam, vb.cam, np.concatenate(uv_a), np.concatenate(own_a), np.concatenate(uv_b),
+                       np.concatenate(own_b), line_family=np.array([fam_index[k] for k, _, _ in lines]),
+                       centres=(ea[keys[0]].centre, eb[keys[0]].centre), corners=corners, corner_sigma=corner_sigma)
+    start = TwoViewStart(R, t0, dirs_a, np.array(pts))
+    options = ScaleOptions(refine=TwoViewOptions(sigma_cost=sigma_cost, pixel_sigma=pixel_sigma))
+    fit = refine_far_or_free(data, start, options)
     return fit, len(matched)
 
 

@@ -22,22 +22,37 @@ degree (docs/relative_pose.md, "The scale: far unless the pixels tell it").
 """
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from .._checks import CatadioptricError, as_scalar
-from .bundle import TwoViewFit, refine_two_view
+from .bundle import TwoViewData, TwoViewFit, TwoViewOptions, TwoViewStart, refine_two_view
 from .translation import triangulate_line
 
-__all__ = ["FAR", "TAU", "MAX_SCALE_STD", "scale_by_search", "refine_far_or_free", "far_and_free_fits", "far_start",
-           "common_gap", "pixel_distances"]
+__all__ = ["FAR", "TAU", "MAX_SCALE_STD", "ScaleOptions", "scale_by_search", "refine_far_or_free", "far_and_free_fits",
+           "far_start", "common_gap", "pixel_distances"]
 
 FAR = 1e4  # the held baseline, in mirror sizes (QuadricMirror.scale): 500-750 m for the presets' mirrors
 TAU = 6.63  # chi-square of one degree of freedom at 99 %: what the free scale must gain to be kept
 # the free fit's baseline length over its deviation must exceed sqrt(TAU) (normal, two-sided 99 %): the
 # largest relative deviation of a length the pixels tell
 MAX_SCALE_STD = 1.0 / np.sqrt(TAU)
+
+
+@dataclass(frozen=True, kw_only=True)
+class ScaleOptions:
+    """How :func:`refine_far_or_free` chooses between the free fit and the far one."""
+
+    #: the far fit's baseline, in mirror sizes (the larger mirror's ``QuadricMirror.scale``)
+    far: float = FAR
+    #: what the free fit must gain on common ground (:func:`common_gap`, chi-square units) to be kept
+    tau: float = TAU
+    #: the largest relative deviation of the free fit's baseline length for it to be kept
+    max_scale_std: float = MAX_SCALE_STD
+    #: the options of both refinements (:class:`~catadioptric.pose.bundle.TwoViewOptions`); their
+    #: ``hold_scale`` and ``release_scale`` are set by :func:`refine_far_or_free` itself
+    refine: TwoViewOptions = field(default_factory=TwoViewOptions)
 
 
 def scale_by_search(va, vb, lines, dirs, R, t_dir, offset, sigma, n_pixels=12):
@@ -127,17 +142,16 @@ def _held_at_length(held, free, ca, cb):
     return replace(held, t=t, points=q, cov=cov)
 
 
-def refine_far_or_free(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, owner_a, uv_b, owner_b, *,
-                       centres, far: float = FAR, tau: float = TAU, max_scale_std: float = MAX_SCALE_STD,
-                       **kwargs) -> TwoViewFit:
+def refine_far_or_free(data: TwoViewData, start: TwoViewStart, options: ScaleOptions = ScaleOptions()) -> TwoViewFit:
     """:func:`~catadioptric.pose.bundle.refine_two_view` with the scene held far unless the pixels
     fix its scale.
 
-    Arguments as :func:`~catadioptric.pose.bundle.refine_two_view` (``centres``: ``(c_A, c_B)``,
-    required here; ``kwargs`` passed on, except ``hold_scale`` and ``release_scale``). Two fits
-    (:func:`far_and_free_fits`):
+    ``data`` and ``start`` as for :func:`~catadioptric.pose.bundle.refine_two_view` (``data.centres``:
+    ``(c_A, c_B)``, required here); ``options``: :class:`ScaleOptions` (``far``, ``tau``,
+    ``max_scale_std`` below; ``refine``: the refinements' options, except ``hold_scale`` and
+    ``release_scale``, which must keep their defaults). Two fits (:func:`far_and_free_fits`):
 
-    * free: from ``t0`` and ``points0`` as given;
+    * free: from ``start.t`` and ``start.points`` as given;
     * far: the start scaled about the centres (the baseline between them ``far`` times the larger
       mirror's size, every line with it; not shrunk when it is already longer) and the scale held
       there. The rig then sees every line nearly as from its central limit: the fit has the
@@ -163,44 +177,48 @@ def refine_far_or_free(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, 
     flat along the scale: the gap is then a likelihood ratio between two minima rather than a
     nested test, and the free fit it keeps is not always the better rotation (docs/relative_pose.md,
     "The scale: far unless the pixels tell it", has the figures)."""
-    far = as_scalar(far, "far", positive=True)
-    tau = as_scalar(tau, "tau")
+    far = as_scalar(options.far, "far", positive=True)
+    tau = as_scalar(options.tau, "tau")
     if tau < 0:
         raise CatadioptricError(f"tau: expected a cost difference of at least 0, got {tau!r}")
-    max_scale_std = as_scalar(max_scale_std, "max_scale_std", positive=True)
+    max_scale_std = as_scalar(options.max_scale_std, "max_scale_std", positive=True)
+    refine, default = options.refine, TwoViewOptions()
     for k in ("hold_scale", "release_scale"):
-        if k in kwargs:
-            raise TypeError(f"refine_far_or_free: {k} is set by the function itself, got {k}={kwargs[k]!r}")
-    free, held = far_and_free_fits(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, owner_a, uv_b, owner_b,
-                                   centres=centres, far=far, **kwargs)
-    ca, cb = (np.asarray(c, float) for c in centres)
+        if getattr(refine, k) != getattr(default, k):
+            raise CatadioptricError(f"options.refine.{k}: set by refine_far_or_free itself, expected the default "
+                                    f"{getattr(default, k)!r}, got {getattr(refine, k)!r}")
+    if data.centres is None:
+        raise CatadioptricError("data.centres: expected (c_A, c_B), required by refine_far_or_free, got None")
+    free, held = far_and_free_fits(data, start, refine, far=far)
+    ca, cb = (np.asarray(c, float) for c in data.centres)
     _, _, std = _baseline(free, ca, cb)
     if held is None:
         return replace(free, scale_held=False, far_gap=float("inf"), scale_std=std)
-    gap = common_gap(free, held, cam_a, cam_b, uv_a, owner_a, uv_b, owner_b,
-                     cap=kwargs.get("inlier_sigmas", 3.5), sigma=kwargs.get("pixel_sigma"))
+    gap = common_gap(free, held, data.cam_a, data.cam_b, data.uv_a, data.owner_a, data.uv_b, data.owner_b,
+                     cap=refine.inlier_sigmas, sigma=refine.pixel_sigma)
     if gap > tau and std < max_scale_std:
         return replace(free, scale_held=False, far_gap=gap, scale_std=std)
     return replace(_held_at_length(held, free, ca, cb), scale_held=True, far_gap=gap, scale_std=std)
 
 
-def far_and_free_fits(cam_a, cam_b, R0, t0, dirs0, points0, line_family, uv_a, owner_a, uv_b, owner_b, *, centres,
-                      far: float = FAR, **kwargs) -> tuple[TwoViewFit, TwoViewFit | None]:
+def far_and_free_fits(data: TwoViewData, start: TwoViewStart, options: TwoViewOptions = TwoViewOptions(), *,
+                      far: float = FAR) -> tuple[TwoViewFit, TwoViewFit | None]:
     """The two refinements :func:`refine_far_or_free` chooses between, ``(free, far)``: free from
-    the start given; far from the start scaled about the centres until the baseline is ``far``
-    times the larger mirror's size (not shrunk when already longer), every line with it, and the
-    scale held there. The far fit is None when the start or the free fit has no baseline to scale
-    (the two views' centres meet)."""
-    R0 = np.asarray(R0, float)
-    ca, cb = (np.asarray(c, float) for c in centres)
-    args = (line_family, uv_a, owner_a, uv_b, owner_b)
-    free = refine_two_view(cam_a, cam_b, R0, t0, dirs0, points0, *args, centres=(ca, cb), **kwargs)
-    if float(np.linalg.norm(R0 @ ca + np.asarray(t0, float) - cb)) == 0.0 or \
+    the start given; far from the start scaled about the centres (``data.centres``, required) until
+    the baseline is ``far`` times the larger mirror's size (not shrunk when already longer), every
+    line with it, and the scale held there. ``options``: those of both refinements (the far one's
+    ``hold_scale`` and ``release_scale`` set here). The far fit is None when the start or the free
+    fit has no baseline to scale (the two views' centres meet)."""
+    R0 = np.asarray(start.R, float)
+    ca, cb = (np.asarray(c, float) for c in data.centres)
+    data = replace(data, centres=(ca, cb))
+    free = refine_two_view(data, replace(start, R=R0), options)
+    if float(np.linalg.norm(R0 @ ca + np.asarray(start.t, float) - cb)) == 0.0 or \
             float(np.linalg.norm(free.R @ ca + free.t - cb)) == 0.0:
         return free, None
-    t_far, points_far = far_start(cam_a, cam_b, R0, t0, points0, centres=(ca, cb), far=far)
-    held = refine_two_view(cam_a, cam_b, R0, t_far, dirs0, points_far, *args, centres=(ca, cb), hold_scale=True,
-                           release_scale=0.0, **kwargs)
+    t_far, points_far = far_start(data.cam_a, data.cam_b, R0, start.t, start.points, centres=(ca, cb), far=far)
+    held = refine_two_view(data, TwoViewStart(R0, t_far, start.directions, points_far),
+                           replace(options, hold_scale=True, release_scale=0.0))
     return free, held
 
 
