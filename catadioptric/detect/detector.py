@@ -11,7 +11,7 @@ from .centres import Centres, pair_edges, step_edges
 from .chains import join_chains, link_chains
 from .curves import line_covariance, merge_pieces, order_along, split_chain
 from .edges import subpixel_edges
-from .families import group_families
+from .families import GroupingOptions, LinePlanes, group_families
 from .grow import grow_lines
 from .image import DENOISE_MODES, check_image_size, denoise, luminance, noise_level, to_channels
 from ..linefit.planes import pixel_rays_with_jacobian
@@ -158,12 +158,11 @@ def detect_lines(image, cam, *, mask=None, **options) -> DetectedLines:
         width.append(float(np.median([chains[s]["width"] for s in p.sources])))
     normals = np.array(normals).reshape(-1, 3)
     covs = np.array(covs).reshape(-1, 3, 3)
-    family, families = group_families(normals, covs, [len(u) for u in uv], chi2_max=o["chi2_max"],
-                                      angle_floor_deg=o["angle_floor_deg"], min_lines=o["min_family_lines"],
-                                      min_search_pixels=o["family_search_pixels"], max_log_nfa=o["max_log_nfa"],
-                                      cam=cam if o["concurrency_px"] > 0 else None,
-                                      ends=np.array([[u[0], u[-1]] for u in uv]).reshape(-1, 2, 2),
-                                      concurrency_px=o["concurrency_px"])
+    planes = LinePlanes(normals, covs, [len(u) for u in uv], cam=cam if o["concurrency_px"] > 0 else None,
+                        ends=np.array([[u[0], u[-1]] for u in uv]).reshape(-1, 2, 2))
+    family, families = group_families(planes, GroupingOptions(
+        chi2_max=o["chi2_max"], angle_floor_deg=o["angle_floor_deg"], min_lines=o["min_family_lines"],
+        min_search_pixels=o["family_search_pixels"], max_log_nfa=o["max_log_nfa"], concurrency_px=o["concurrency_px"]))
     lap("families")
     seconds["total"] = float(sum(seconds.values()))
     return DetectedLines(cam=cam, uv=uv, normal=normals, normal_cov=covs, rms=np.array(rms), polarity=np.array(pol),

@@ -42,7 +42,52 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Family", "group_families", "refine_direction", "log_nfa", "concurrent"]
+__all__ = ["Family", "LinePlanes", "GroupingOptions", "group_families", "refine_direction", "log_nfa", "concurrent"]
+
+
+@dataclass(frozen=True)
+class LinePlanes:
+    """The lines :func:`group_families` groups, each known by the plane holding its rays: unit
+    ``normals (L, 3)``, their covariances ``covs (L, 3, 3)`` and each line's number of pixels
+    ``pixels (L,)``. With the camera ``cam`` and each line's end pixels ``ends (L, 2, 2)``,
+    directions whose lines mostly end at one of its images are rejected as concurrent (None: not
+    checked)."""
+
+    normals: np.ndarray
+    covs: np.ndarray
+    pixels: np.ndarray
+    cam: object = None
+    ends: np.ndarray | None = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class GroupingOptions:
+    """How :func:`group_families` groups lines into families (the module docstring's steps)."""
+
+    #: a line agrees with a direction when its chi-square ``chi2_i(s)`` is at most this
+    chi2_max: float = 9.0
+    #: the angular error every line is granted beyond its covariance (degrees)
+    angle_floor_deg: float = 0.1
+    #: the fewest lines of a family
+    min_lines: int = 3
+    #: the longest lines whose pairs give the hypotheses (step 1)
+    max_seed_lines: int = 60
+    #: planes closer than this (degrees) give no hypothesis (step 1)
+    min_seed_angle_deg: float = 5.0
+    #: a family's log number of false alarms must be at most this (step 4)
+    max_log_nfa: float = -4.0
+    #: lines with fewer pixels do not search for families, they only join them
+    min_search_pixels: int = 20
+    #: a line joins a family only if its band of agreement (3 sigma) is at most this wide (degrees; step 6)
+    max_band_deg: float = 2.0
+    #: a direction is a concurrency when most of its lines end within this many pixels of its image (step 4)
+    concurrency_px: float = 5.0
+    #: families closer than this (degrees) are merged (step 5)
+    merge_deg: float = 2.0
+    #: a blend of two families is split when two directions lower the total chi-square by more than this (step 3)
+    split_gain: float = 25.0
+    #: the most families searched for
+    max_families: int = 20
 
 
 @dataclass
@@ -108,30 +153,28 @@ def concurrent(cam, s, ends, radius: float) -> bool:
     return bool(np.mean(d <= radius) >= 0.5)
 
 
-def group_families(normals, covs, pixels, *, chi2_max: float = 9.0, angle_floor_deg: float = 0.1,
-                   min_lines: int = 3, max_seed_lines: int = 60, min_seed_angle_deg: float = 5.0,
-                   max_log_nfa: float = -4.0, min_search_pixels: int = 20, max_band_deg: float = 2.0,
-                   cam=None, ends=None, concurrency_px: float = 5.0, merge_deg: float = 2.0, split_gain: float = 25.0,
-                   max_families: int = 20) -> tuple[np.ndarray, list[Family]]:
-    """Families of lines with plane normals ``normals (L, 3)``, covariances ``covs (L, 3, 3)`` and
-    ``pixels (L,)`` counts (module docstring). With ``cam`` and each line's end pixels ``ends
-    (L, 2, 2)``, directions whose lines mostly end at one of its images are rejected as
-    concurrent. Returns ``(family (L,), families)``: each line's family index into ``families``
-    or -1."""
-    N = np.asarray(normals, float).reshape(-1, 3)
-    C = np.asarray(covs, float).reshape(-1, 3, 3)
-    w = np.asarray(pixels, float).reshape(-1)
+def group_families(planes: LinePlanes, options: GroupingOptions = GroupingOptions()) -> tuple[np.ndarray, list[Family]]:
+    """Families of the lines ``planes`` (:class:`LinePlanes`: their planes' normals, covariances and
+    pixel counts, optionally the camera and their end pixels for the concurrency check), grouped as
+    the module docstring says with ``options`` (:class:`GroupingOptions`). Returns ``(family (L,),
+    families)``: each line's family index into ``families`` or -1."""
+    o = options
+    chi2_max, min_lines, max_families = o.chi2_max, o.min_lines, o.max_families
+    cam, ends = planes.cam, planes.ends
+    N = np.asarray(planes.normals, float).reshape(-1, 3)
+    C = np.asarray(planes.covs, float).reshape(-1, 3, 3)
+    w = np.asarray(planes.pixels, float).reshape(-1)
     L = len(N)
     label = np.full(L, -1, dtype=np.int64)
     if L < max(min_lines, 2):
         return label, []
-    floor2 = np.sin(np.radians(angle_floor_deg)) ** 2
-    search = w >= min_search_pixels  # the lines that find families; shorter ones only join them
-    seeds = np.argsort(-np.where(search, w, -1.0))[:min(max_seed_lines, int(search.sum()))]
+    floor2 = np.sin(np.radians(o.angle_floor_deg)) ** 2
+    search = w >= o.min_search_pixels  # the lines that find families; shorter ones only join them
+    seeds = np.argsort(-np.where(search, w, -1.0))[:min(o.max_seed_lines, int(search.sum()))]
     i, j = np.triu_indices(len(seeds), 1)
     S = np.cross(N[seeds[i]], N[seeds[j]])
     sn = np.linalg.norm(S, axis=1)
-    ok = sn >= np.sin(np.radians(min_seed_angle_deg))
+    ok = sn >= np.sin(np.radians(o.min_seed_angle_deg))
     S = S[ok] / sn[ok, None]
     if len(S) == 0:
         return label, []
@@ -161,21 +204,21 @@ def group_families(normals, covs, pixels, *, chi2_max: float = 9.0, angle_floor_
             if np.array_equal(new, lines) or len(new) < min_lines:
                 break
             lines = new
-        sub = _split(N, C, lines, s, floor2, min_lines, split_gain)
+        sub = _split(N, C, lines, s, floor2, min_lines, o.split_gain)
         if sub is not None:  # a blend of two families: keep the better half, the rest stays free
             lines = sub
             s, cov = refine_direction(N, C, lines, s)
         b = np.sqrt(chi2_max * (np.einsum("i,lij,j->l", s, C[lines], s) + floor2))
-        if (len(lines) < min_lines or log_nfa(np.minimum(b, 1.0), n_free) > max_log_nfa
-                or (cam is not None and concurrent(cam, s, np.asarray(ends)[lines], concurrency_px))):
+        if (len(lines) < min_lines or log_nfa(np.minimum(b, 1.0), n_free) > o.max_log_nfa
+                or (cam is not None and concurrent(cam, s, np.asarray(ends)[lines], o.concurrency_px))):
             # the hypothesis does not hold up once refined: drop it and go on
             X2[h] = np.inf
             continue
         dirs.append(s)
         members.append(lines)
         free[lines] = False
-    dirs = _merge_close(N, C, dirs, members, np.radians(merge_deg))
-    return _assign(N, C, w, dirs, floor2, chi2_max, min_lines, np.radians(max_band_deg))
+    dirs = _merge_close(N, C, dirs, members, np.radians(o.merge_deg))
+    return _assign(N, C, w, dirs, floor2, chi2_max, min_lines, np.radians(o.max_band_deg))
 
 
 def _split(N, C, lines, s, floor2, min_lines, gain, tight=4.0):

@@ -25,7 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._checks import CatadioptricError
-from .families import Family, concurrent, group_families, log_nfa, refine_direction
+from .families import (Family, GroupingOptions, LinePlanes, concurrent, group_families, log_nfa,
+                       refine_direction)
 
 __all__ = ["JointFamily", "joint_families", "with_families"]
 
@@ -71,9 +72,9 @@ def joint_families(det_a, det_b, R, *, taken_a=(), taken_b=(), rotation_std_deg:
     C = np.concatenate([det_a.normal_cov[free_a], cb])
     pix = np.array([len(det_a.uv[i]) for i in free_a] + [len(det_b.uv[i]) for i in free_b])
     view = np.r_[np.zeros(len(free_a), int), np.ones(len(free_b), int)]
-    label, fams = group_families(N, C, pix, chi2_max=chi2_max, angle_floor_deg=angle_floor_deg,
-                                 min_lines=2 * min_per_view, min_search_pixels=0, max_log_nfa=max_log_nfa,
-                                 merge_deg=merge_deg)
+    label, fams = group_families(LinePlanes(N, C, pix), GroupingOptions(
+        chi2_max=chi2_max, angle_floor_deg=angle_floor_deg, min_lines=2 * min_per_view, min_search_pixels=0,
+        max_log_nfa=max_log_nfa, merge_deg=merge_deg))
     known = np.asarray(known_directions, float).reshape(-1, 3)
     out = []
     for f, fam in enumerate(fams):
