@@ -18,7 +18,7 @@ from ._common import (
 )
 from .distances import closest_depths, linear_distances
 from .linear import moment_candidates, ray_frame
-from .problem import solve_family
+from .problem import FamilyPixels, FamilyStart, SolveOptions, solve_family
 from .ransac import best_linear, initial_line, msac_line, prepare_pixels
 from .results import FamilyFit, LineFit
 
@@ -61,9 +61,10 @@ def fit_line(cam: CatadioptricCamera, uv, *, loss: str = "soft_l1", f_scale: flo
                                      dmin=dmin)
     lam0 = closest_depths(q, s, px.o, px.d)
     owner = np.zeros(len(px.uv), dtype=np.int64)
-    r = solve_family(cam, px.uv, px.o, px.d, owner, 1, s, q[None], lam0, loss=loss, f_scale=f_scale,
-                     pixel_sigma=pixel_sigma, inlier_threshold=inlier_threshold, jac=jac, start_mask=mask,
-                     names=["uv"], min_distance=dmin)
+    options = SolveOptions(loss=loss, f_scale=f_scale, pixel_sigma=pixel_sigma, inlier_threshold=inlier_threshold,
+                           jac=jac, min_distance=dmin)
+    r = solve_family(FamilyPixels(cam, px.uv, px.o, px.d, owner, 1, names=["uv"]),
+                     FamilyStart(s, q[None], lam0, mask=mask), options)
     return _line_result(r, ok, len(uv), n_hyp)
 
 
@@ -165,10 +166,11 @@ def fit_parallel_lines(cam: CatadioptricCamera, uv_sets, *, loss: str = "soft_l1
     owner = np.concatenate([np.full(len(px.uv), i, dtype=np.int64) for i, px in enumerate(pxs)])
     uv_all = np.concatenate([px.uv for px in pxs])
     lam0 = closest_depths(q0[owner], s0, o_all, d_all)
-    r = solve_family(cam, uv_all, o_all, d_all, owner, len(pxs), s0, q0, lam0, loss=loss, f_scale=f_scale,
-                     pixel_sigma=pixel_sigma, inlier_threshold=inlier_threshold, jac=jac,
-                     start_mask=np.concatenate(masks), x0=frame.x0, names=[f"uv_sets[{i}]" for i in range(len(pxs))],
-                     min_distance=dmin)
+    options = SolveOptions(loss=loss, f_scale=f_scale, pixel_sigma=pixel_sigma, inlier_threshold=inlier_threshold,
+                           jac=jac, min_distance=dmin)
+    data = FamilyPixels(cam, uv_all, o_all, d_all, owner, len(pxs), names=[f"uv_sets[{i}]" for i in range(len(pxs))],
+                        x0=frame.x0)
+    r = solve_family(data, FamilyStart(s0, q0, lam0, mask=np.concatenate(masks)), options)
     s, q = r["s"], r["q"]
     sign = _orient(r["lam"][owner == 0], r["inliers"][owner == 0])
     s = sign * s

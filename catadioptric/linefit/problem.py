@@ -2,6 +2,8 @@
 coordinates), its robust solution, inliers and Schur-complement covariance."""
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import least_squares
@@ -11,6 +13,8 @@ from ._common import HALF_NORMAL_MEDIAN, tangent_basis, unit_vectors
 from .distances import closest_depths, depth_refine
 from .jacobian import project_with_jacobian
 from .linear import ray_frame
+
+__all__ = ["Problem", "FamilyPixels", "FamilyStart", "SolveOptions", "solve_family"]
 
 
 # --------------------------------------------------------------------------- the joint least-squares problem
@@ -177,27 +181,75 @@ def _canonical(s, q, lam, owner):
     return q - t[:, None] * s, lam + t[owner]
 
 
-def solve_family(cam, uv_all, o, d, owner, n_lines, s0, q0, lam0, *, loss, f_scale, pixel_sigma,
-                 inlier_threshold, jac="analytic", start_mask=None, x0=None, names=None, min_distance=0.0):
+@dataclass(frozen=True)
+class FamilyPixels:
+    """The pixels :func:`solve_family` fits, of lines sharing one direction: the camera ``cam``,
+    ``uv (N, 2)`` pixels that see the world, ``o, d (N, 3)`` their rays, ``owner (N,)`` their line
+    among ``n_lines``. ``names``: the argument each line's pixels came from, for errors (None:
+    ``line i``); ``x0``: the rays' centre (None: the point nearest the rays)."""
+
+    cam: object
+    uv: np.ndarray
+    o: np.ndarray
+    d: np.ndarray
+    owner: np.ndarray
+    n_lines: int
+    names: list | None = None
+    x0: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class FamilyStart:
+    """Where :func:`solve_family` starts: the ``direction (3,)``, a point of each line
+    ``points (n_lines, 3)``, each pixel's depth along its line ``depths (N,)``, and the pixels of
+    the first stage ``mask (N,)`` (None: all)."""
+
+    direction: np.ndarray
+    points: np.ndarray
+    depths: np.ndarray
+    mask: np.ndarray | None = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class SolveOptions:
+    """How :func:`solve_family` fits (:func:`~catadioptric.linefit.fit_line` documents each)."""
+
+    #: the first stage's loss (``scipy.optimize.least_squares``), then a plain least-squares polish
+    loss: str = "soft_l1"
+    #: the loss's scale (pixels)
+    f_scale: float = 1.0
+    #: known pixel noise for the inliers and the covariance (None: estimated)
+    pixel_sigma: float | None = None
+    #: the inliers' largest distance to the fitted image (pixels; None: from ``pixel_sigma`` or the residuals)
+    inlier_threshold: float | None = None
+    #: ``"analytic"`` (Fermat's principle) or ``"2-point"``/``"3-point"`` (finite differences)
+    jac: str = "analytic"
+    #: the lines stay at least this far from the rays' centre (metres)
+    min_distance: float = 0.0
+
+
+def solve_family(pixels: FamilyPixels, start: FamilyStart, options: SolveOptions = SolveOptions()) -> dict:
     """Robust fit, inlier classification, least-squares polish on the inliers, covariance.
 
-    ``uv_all (N, 2)`` pixels that see the world, ``o, d (N, 3)`` their rays, ``owner (N,)``
-    their line (``names``: the argument each line's pixels came from, for errors). The
-    first stage (``loss``) uses the pixels of ``start_mask`` (default all) with depths
-    ``lam0``. The inliers are the pixels within the threshold of the fitted image
-    (``inlier_threshold``, else ``3.5 pixel_sigma``, else ``3 max(f_scale, 1.2 sigma_r)`` with
-    ``sigma_r`` from the median distance); a plain least-squares polish on them is
+    ``pixels``: :class:`FamilyPixels`; ``start``: :class:`FamilyStart`; ``options``:
+    :class:`SolveOptions`. The first stage (``loss``) uses the pixels of ``start.mask`` (default
+    all) with depths ``start.depths``. The inliers are the pixels within the threshold of the
+    fitted image (``inlier_threshold``, else ``3.5 pixel_sigma``, else ``3 max(f_scale, 1.2
+    sigma_r)`` with ``sigma_r`` from the median distance); a plain least-squares polish on them is
     repeated (at most three times) until they settle. Lines stay at least ``min_distance``
     from the rays' centre ``x0``. Returns a dict."""
-    names = names or [f"line {i}" for i in range(n_lines)]
+    cam, uv_all, o, d, owner, n_lines = pixels.cam, pixels.uv, pixels.o, pixels.d, pixels.owner, pixels.n_lines
+    loss, f_scale, pixel_sigma = options.loss, options.f_scale, options.pixel_sigma
+    inlier_threshold, jac, min_distance = options.inlier_threshold, options.jac, options.min_distance
+    names = pixels.names or [f"line {i}" for i in range(n_lines)]
     rho_max = 1.0 / min_distance if min_distance > 0 else np.inf
     N = len(uv_all)
-    use = np.ones(N, dtype=bool) if start_mask is None else np.asarray(start_mask, dtype=bool).copy()
+    use = np.ones(N, dtype=bool) if start.mask is None else np.asarray(start.mask, dtype=bool).copy()
     nfev = 0
-    s = unit_vectors(np.asarray(s0, dtype=float))
-    q = np.asarray(q0, dtype=float).reshape(n_lines, 3)
-    lam = np.asarray(lam0, dtype=float).copy()
-    xc = ray_frame(cam, o, d).x0 if x0 is None else np.asarray(x0, dtype=float)
+    s = unit_vectors(np.asarray(start.direction, dtype=float))
+    q = np.asarray(start.points, dtype=float).reshape(n_lines, 3)
+    lam = np.asarray(start.depths, dtype=float).copy()
+    xc = ray_frame(cam, o, d).x0 if pixels.x0 is None else np.asarray(pixels.x0, dtype=float)
 
     def solve(mask, loss_, s, q, lam):
         pb = Problem(cam, uv_all[mask], owner[mask], n_lines, xc, s, q, lam[mask], rho_max)
