@@ -1,4 +1,5 @@
-"""The package's structure: no private name crosses a module boundary, and imports point downward.
+"""The package's structure: no private name crosses a module boundary, imports point downward, and
+no function takes more than 15 parameters.
 
 Both checks read the source with :mod:`ast` (nothing is imported), so they see imports made
 inside functions as well as at import time.
@@ -257,3 +258,47 @@ def f():
     found = [(t, why) for _, t, why in _upward("catadioptric.projection", ast.parse(src), _layer_of())]
     assert found == [("catadioptric.cameras", "higher layer"), ("catadioptric.vanishing", "higher layer"),
                      ("catadioptric.lines", "higher layer"), ("catadioptric.models.base", "higher layer")]
+
+
+# --------------------------------------------------------------------------- parameter lists
+MAX_PARAMETERS = 15  # inputs beyond this go into a dataclass of the data and one of the options
+
+
+def _parameter_count(fn):
+    """The parameters of a function (positional, keyword-only, ``*args``, ``**kwargs``), ``self`` or
+    ``cls`` of a method not counted."""
+    a = fn.args
+    names = [x.arg for x in a.posonlyargs + a.args + a.kwonlyargs]
+    if names and names[0] in ("self", "cls"):
+        names = names[1:]
+    return len(names) + (a.vararg is not None) + (a.kwarg is not None)
+
+
+def _long_parameter_lists(tree, limit=MAX_PARAMETERS):
+    """``(line, name, count)`` of every function or method of ``tree`` taking more than ``limit``."""
+    return [(node.lineno, node.name, _parameter_count(node)) for node in ast.walk(tree)
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and _parameter_count(node) > limit]
+
+
+def test_no_function_takes_more_than_15_parameters():
+    found = [f"{path.relative_to(ROOT.parent)}:{line}: {name} takes {n}"
+             for _, path, tree in _trees() for line, name, n in _long_parameter_lists(tree)]
+    assert not found, (f"functions over {MAX_PARAMETERS} parameters (pass a dataclass of the inputs and one of the "
+                       "options instead):\n" + "\n".join(found))
+
+
+def test_the_parameter_check_counts_each_kind():
+    """Positional-only, positional, keyword-only, ``*args`` and ``**kwargs`` count; ``self`` does not."""
+    src = """
+def ok(a, b, /, c, *args, d, **kw):
+    pass
+class C:
+    def m(self, p0, p1, p2, p3, p4, p5, p6, p7, p8, p9, p10, p11, p12, p13, p14):
+        pass
+    def wide(self, p0, p1, p2, p3, p4, p5, p6, p7, p8, p9, p10, p11, p12, p13, *, k, **kw):
+        pass
+"""
+    tree = ast.parse(src)
+    counts = {node.name: _parameter_count(node) for node in ast.walk(tree) if isinstance(node, ast.FunctionDef)}
+    assert counts == {"ok": 6, "m": 15, "wide": 16}
+    assert [(name, n) for _, name, n in _long_parameter_lists(tree)] == [("wide", 16)]
