@@ -437,43 +437,14 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
     # the robust losses' scale: the pixel noise, but not below a tenth of f_scale (exact pixels would
     # otherwise make every pixel an outlier of a loss a thousandth of a pixel wide)
     sigma_cost = pixel_sigma if pixel_sigma is not None else max(sigma_est, 0.1 * f_scale)
-    cands = sign_candidates(a, b, Ca, Cb, signs=np.ones(len(keys)) if ends is not None else None)
-    n_all = len(cands)
-    cands = _within_prior(cands, max_rotation_deg, "sign pattern of the families")
-    if len(cands) < n_all:
-        notes.append(f"{n_all - len(cands)} of {n_all} sign patterns turn by more than max_rotation_deg = "
-                     f"{max_rotation_deg} degrees: not considered")
-    # stage 1: directions and the rays where lines meet, for every candidate (cheap)
-    rays = meeting_rays(view_a, view_b, ea, eb, keys)
-    stage = []
-    for c in cands:
-        cr = translation_direction_from_crossings(rays, c.R, sigma_px=sigma_cost, seed=seed)
-        # a rotation under which the meeting rays give no direction is scored as if none of them fitted
-        # (the truncated cost's ceiling, 9 each), not as if they all fitted perfectly (0)
-        stage.append((c.cost + (cr.cost if cr is not None else 0.0 if rays is None else 9.0 * len(rays.xa)), c, cr))
-    stage.sort(key=lambda x: x[0])
+    # stage 1: the sign candidates, ranked by their directions and where lines meet (cheap)
+    stage, out, rays = _first_stage(a, b, Ca, Cb, keys, view_a, view_b, ea, eb, ends, max_rotation_deg, sigma_cost,
+                                    seed, notes)
     # how much the first stage knows: with few meeting rays its ranking of the sign candidates is no
     # evidence (MIN_MEETINGS), only the directions' part of its cost is
     n_meet = 0 if rays is None else len(rays.xa)
     weak = n_meet < MIN_MEETINGS
-    out = []
     n_matched = rays.n_lines if rays is not None else 0
-    for score1, c, cr in stage:
-        cov, R, t = None, c.R, None if cr is None else cr.t
-        if cr is not None:
-            cov = np.full((6, 6), np.nan)
-            cov[:3, :3], cov[3:, 3:] = c.cov, cr.cov
-            if rays.cov_a is not None and cr.n_inliers >= 2:
-                # the rotation and the translation's direction together, from the directions and the
-                # inlier meeting rays (pose/epipolar.py); the candidates keep their stage-1 ranking
-                ef = refine_with_crossings(a * c.signs[:, None], b, Ca, Cb, rays, cr, c.R)
-                R, cov = ef.R, ef.cov
-                # the direction again at that rotation, as stage 1 places it: its inliers follow their
-                # own spread, so that exact pixels give it exactly (the joint fit's Cauchy weights
-                # leave the rays that pass the threshold without meeting a pull of 1e-3 degree)
-                cr_r = translation_direction_from_crossings(rays, R, sigma_px=sigma_cost, seed=seed)
-                t = cr.t if cr_r is None else cr_r.t
-        out.append(Candidate(dict(zip(keys, c.signs.astype(int))), R, t, score1, c.cost, cov, cr))
     margin = out[1].cost - out[0].cost if len(out) > 1 else float("inf")
     if weak and len(out) > 1:
         margin = _direction_margin(out)
@@ -484,44 +455,12 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
             notes.append(f"the answer rests on {n_meet} meeting rays (fewer than {MIN_MEETINGS}): its margin is "
                          f"the directions' alone ({margin:.1f}), where lines meet does not tell the candidates apart")
     if not central:
-        # stage 2: the metric refinement on the pixels of both views. The best candidate of stage 1 and
-        # every one stage 1 cannot tell from it (within ``decisive``) are refined and ranked by the
-        # refinement's cost; if the best of stage 1 then does not fit the pixels, every candidate is.
-        todo = [i for i, o in enumerate(out) if o.cost < out[0].cost + decisive or weak]
-        done = set()
-        while todo:
-            for i in todo:
-                fit, n_m = _noncentral_candidate(out[i], keys, view_a, view_b, ea, eb, stage[i][2],
-                                                 max_pixels=max_pixels, sigma_cost=sigma_cost, pixel_sigma=pixel_sigma,
-                                                 meeting=rays)
-                n_matched = max(n_matched, n_m)
-                done.add(i)
-                if fit is not None:
-                    o = out[i]
-                    out[i] = Candidate(o.signs, fit.R, fit.t, fit.cost, o.direction_cost, fit.cov, fit)
-            fits = [out[i].fit for i in done if isinstance(out[i].fit, TwoViewFit)]
-            good = any(f.cost <= _FITS * int(f.n_pixels.sum()) for f in fits)
-            todo = [] if good or not fits else [i for i in range(len(out)) if i not in done]
-        refined = sorted((out[i] for i in done if isinstance(out[i].fit, TwoViewFit)), key=lambda o: o.cost)
-        if refined:
-            # a rival whose refinement failed (no crossing fit under its rotation) was not scored by the
-            # refinement: it counts by its stage-1 cost over the winner's, as the rivals never refined do
-            # (it was refined because stage 1 could not tell it from the best), not as no rival at all
-            s_win = next(stage[i][0] for i in done if out[i] is refined[0])
-            failed = [max(0.0, stage[i][0] - s_win) for i in done if not isinstance(out[i].fit, TwoViewFit)
-                      and rotation_angle_deg(out[i].R @ refined[0].R.T) > _SAME_DEG]
-            rest = [o for i, o in enumerate(out) if i not in done or not isinstance(o.fit, TwoViewFit)]
-            out = refined + rest
-            # the margin is to the next different answer (two candidates that refine to the same rotation
-            # are one answer); candidates never refined lost stage 1 by at least ``decisive``
-            others = [o.cost - refined[0].cost for o in refined[1:]
-                      if rotation_angle_deg(o.R @ refined[0].R.T) > _SAME_DEG] + failed
-            if len(done) < len(stage):
-                others.append(max(decisive, min(s[0] for i, s in enumerate(stage) if i not in done) - stage[0][0]))
-            if failed:
-                notes.append(f"{len(failed)} rival answers could not be refined on the pixels: counted by their "
-                             f"first-stage cost over the best's (margin {min(failed):.1f} from them)")
-            margin = min(others) if others else float("inf")
+        out, n_matched, refined_margin = _refine_on_pixels(out, stage, keys, view_a, view_b, ea, eb, rays, weak, notes,
+                                                           decisive=decisive, max_pixels=max_pixels,
+                                                           sigma_cost=sigma_cost, pixel_sigma=pixel_sigma,
+                                                           n_matched=n_matched)
+        if refined_margin is not None:
+            margin = refined_margin
     best = out[0]
     if not central and not isinstance(best.fit, TwoViewFit):
         notes.append("no two lines were matched in both views with a fitted 3-D line in each: metric translation "
@@ -541,27 +480,127 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
                          f"stage is weak ({WEAK_BAR_PER_PIXEL:g} per pixel fitted): ambiguous")
     par, t_best = None, best.t
     if central and t_best is not None and isinstance(best.fit, CrossingFit):
-        par = parallax(rays, best.R, best.fit)
-        twins = rotation_twins(view_a, view_b, ea, eb, keys, best.R)
-        if par is not None and not par.observable:
-            why = (f"the {par.n_rays} meeting points agree with a rotation alone (median {par.median_deg:.3g} deg apart, "
-                   f"chi-square {par.chi2:.1f} on {par.dof} degrees of freedom, p = {par.p_value:.2g})")
-        elif len(twins.pairs) >= max(_TWINS_MIN, _TWINS_OVER_MATCHED * n_matched):
-            why = (f"{len(twins.pairs)} of the {twins.lines_a} lines of A's matched families are seen again unchanged "
-                   f"under the rotation alone (same plane and place), against {n_matched} lines that a translation "
-                   f"matched")
-            par = Parallax(par.chi2 if par else float("nan"), par.dof if par else 0, par.p_value if par else float("nan"),
-                           False, par.n_rays if par else 0, par.median_deg if par else float("nan"))
-        else:
-            why = None
-        if why is not None:
-            t_best = np.zeros(3)
-            notes.append(f"no parallax: {why}: a camera turned in place, or a baseline too small to see; t is "
-                         f"reported as zero (its direction is not observable)")
+        par, t_best = _parallax_verdict(best, rays, view_a, view_b, ea, eb, keys, n_matched, notes)
     return RelativePose(R=best.R, t=t_best, cov=cov, metric=isinstance(best.fit, TwoViewFit), parallax=par,
                         ambiguous=bool(margin < bar), margin=float(margin), candidates=out, families=keys,
                         lines_matched=n_matched, model="central" if central else "non-central", sigma_px=float(sigma),
                         estimates=(ea, eb), notes=notes, meeting_rays=n_meet, bar=float(bar))
+
+
+def _first_stage(a, b, Ca, Cb, keys, view_a, view_b, ea, eb, ends, max_rotation_deg, sigma_cost, seed, notes):
+    """Stage 1 of :func:`_relative_pose`: the sign candidates of the families' directions ``a``,
+    ``b`` (covariances ``Ca``, ``Cb``; all signs known with ``ends``) within the prior, each with
+    the direction between the centres from the rays where lines meet. Returns ``(stage, out,
+    rays)``: per candidate ``(score, sign candidate, crossing fit)``, best first; the
+    :class:`Candidate` of each, in that order; the meeting rays. Notes are appended to ``notes``."""
+    cands = sign_candidates(a, b, Ca, Cb, signs=np.ones(len(keys)) if ends is not None else None)
+    n_all = len(cands)
+    cands = _within_prior(cands, max_rotation_deg, "sign pattern of the families")
+    if len(cands) < n_all:
+        notes.append(f"{n_all - len(cands)} of {n_all} sign patterns turn by more than max_rotation_deg = "
+                     f"{max_rotation_deg} degrees: not considered")
+    # stage 1: directions and the rays where lines meet, for every candidate (cheap)
+    rays = meeting_rays(view_a, view_b, ea, eb, keys)
+    stage = []
+    for c in cands:
+        cr = translation_direction_from_crossings(rays, c.R, sigma_px=sigma_cost, seed=seed)
+        # a rotation under which the meeting rays give no direction is scored as if none of them fitted
+        # (the truncated cost's ceiling, 9 each), not as if they all fitted perfectly (0)
+        stage.append((c.cost + (cr.cost if cr is not None else 0.0 if rays is None else 9.0 * len(rays.xa)), c, cr))
+    stage.sort(key=lambda x: x[0])
+    out = []
+    for score1, c, cr in stage:
+        cov, R, t = None, c.R, None if cr is None else cr.t
+        if cr is not None:
+            cov = np.full((6, 6), np.nan)
+            cov[:3, :3], cov[3:, 3:] = c.cov, cr.cov
+            if rays.cov_a is not None and cr.n_inliers >= 2:
+                # the rotation and the translation's direction together, from the directions and the
+                # inlier meeting rays (pose/epipolar.py); the candidates keep their stage-1 ranking
+                ef = refine_with_crossings(a * c.signs[:, None], b, Ca, Cb, rays, cr, c.R)
+                R, cov = ef.R, ef.cov
+                # the direction again at that rotation, as stage 1 places it: its inliers follow their
+                # own spread, so that exact pixels give it exactly (the joint fit's Cauchy weights
+                # leave the rays that pass the threshold without meeting a pull of 1e-3 degree)
+                cr_r = translation_direction_from_crossings(rays, R, sigma_px=sigma_cost, seed=seed)
+                t = cr.t if cr_r is None else cr_r.t
+        out.append(Candidate(dict(zip(keys, c.signs.astype(int))), R, t, score1, c.cost, cov, cr))
+    return stage, out, rays
+
+
+def _refine_on_pixels(out, stage, keys, view_a, view_b, ea, eb, rays, weak, notes, *, decisive, max_pixels, sigma_cost,
+                      pixel_sigma, n_matched):
+    """Stage 2 of :func:`_relative_pose` (non-central rigs): the candidates ``out`` of stage 1
+    (``stage``: their ``(score, sign candidate, crossing fit)``) refined on the pixels of both views
+    as the comment below says. Returns ``(out, n_matched, margin)``: the candidates, the refined
+    first by their cost; the most lines matched; the margin to the next different answer, None when
+    no candidate was refined (stage 1's margin stands). Notes are appended to ``notes``."""
+    margin = None
+    # stage 2: the metric refinement on the pixels of both views. The best candidate of stage 1 and
+    # every one stage 1 cannot tell from it (within ``decisive``) are refined and ranked by the
+    # refinement's cost; if the best of stage 1 then does not fit the pixels, every candidate is.
+    todo = [i for i, o in enumerate(out) if o.cost < out[0].cost + decisive or weak]
+    done = set()
+    while todo:
+        for i in todo:
+            fit, n_m = _noncentral_candidate(out[i], keys, view_a, view_b, ea, eb, stage[i][2],
+                                             max_pixels=max_pixels, sigma_cost=sigma_cost, pixel_sigma=pixel_sigma,
+                                             meeting=rays)
+            n_matched = max(n_matched, n_m)
+            done.add(i)
+            if fit is not None:
+                o = out[i]
+                out[i] = Candidate(o.signs, fit.R, fit.t, fit.cost, o.direction_cost, fit.cov, fit)
+        fits = [out[i].fit for i in done if isinstance(out[i].fit, TwoViewFit)]
+        good = any(f.cost <= _FITS * int(f.n_pixels.sum()) for f in fits)
+        todo = [] if good or not fits else [i for i in range(len(out)) if i not in done]
+    refined = sorted((out[i] for i in done if isinstance(out[i].fit, TwoViewFit)), key=lambda o: o.cost)
+    if refined:
+        # a rival whose refinement failed (no crossing fit under its rotation) was not scored by the
+        # refinement: it counts by its stage-1 cost over the winner's, as the rivals never refined do
+        # (it was refined because stage 1 could not tell it from the best), not as no rival at all
+        s_win = next(stage[i][0] for i in done if out[i] is refined[0])
+        failed = [max(0.0, stage[i][0] - s_win) for i in done if not isinstance(out[i].fit, TwoViewFit)
+                  and rotation_angle_deg(out[i].R @ refined[0].R.T) > _SAME_DEG]
+        rest = [o for i, o in enumerate(out) if i not in done or not isinstance(o.fit, TwoViewFit)]
+        out = refined + rest
+        # the margin is to the next different answer (two candidates that refine to the same rotation
+        # are one answer); candidates never refined lost stage 1 by at least ``decisive``
+        others = [o.cost - refined[0].cost for o in refined[1:]
+                  if rotation_angle_deg(o.R @ refined[0].R.T) > _SAME_DEG] + failed
+        if len(done) < len(stage):
+            others.append(max(decisive, min(s[0] for i, s in enumerate(stage) if i not in done) - stage[0][0]))
+        if failed:
+            notes.append(f"{len(failed)} rival answers could not be refined on the pixels: counted by their "
+                         f"first-stage cost over the best's (margin {min(failed):.1f} from them)")
+        margin = min(others) if others else float("inf")
+    return out, n_matched, margin
+
+
+def _parallax_verdict(best, rays, view_a, view_b, ea, eb, keys, n_matched, notes):
+    """For a central answer with a translation direction from the meeting rays: its parallax and
+    translation, ``(par, t)``: ``t`` zero (its direction not observable, a note appended to
+    ``notes``) when the meeting points agree with the rotation alone, or when many lines of A are
+    seen again unchanged under it (a camera turned in place); else ``best.t``."""
+    t_best = best.t
+    par = parallax(rays, best.R, best.fit)
+    twins = rotation_twins(view_a, view_b, ea, eb, keys, best.R)
+    if par is not None and not par.observable:
+        why = (f"the {par.n_rays} meeting points agree with a rotation alone (median {par.median_deg:.3g} deg apart, "
+               f"chi-square {par.chi2:.1f} on {par.dof} degrees of freedom, p = {par.p_value:.2g})")
+    elif len(twins.pairs) >= max(_TWINS_MIN, _TWINS_OVER_MATCHED * n_matched):
+        why = (f"{len(twins.pairs)} of the {twins.lines_a} lines of A's matched families are seen again unchanged "
+               f"under the rotation alone (same plane and place), against {n_matched} lines that a translation "
+               f"matched")
+        par = Parallax(par.chi2 if par else float("nan"), par.dof if par else 0, par.p_value if par else float("nan"),
+                       False, par.n_rays if par else 0, par.median_deg if par else float("nan"))
+    else:
+        why = None
+    if why is not None:
+        t_best = np.zeros(3)
+        notes.append(f"no parallax: {why}: a camera turned in place, or a baseline too small to see; t is "
+                     f"reported as zero (its direction is not observable)")
+    return par, t_best
 
 
 #: a camera turned in place (no parallax) is told apart from its rivals by the lines its rotation
