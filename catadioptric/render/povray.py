@@ -192,16 +192,18 @@ def _error_lines(log: str, limit: int = 25) -> str:
 # leaves no POV-Ray running): PR_SET_PDEATHSIG, set by a small program that then becomes POV-Ray (the
 # setting survives the exec). Not by a preexec_fn: that makes subprocess fork() instead of vfork(),
 # and fork() runs OpenBLAS's fork handler, which waits for a BLAS call running in another thread (the
-# ground truth computed beside the render) and never returns: the render hung.
+# ground truth computed beside the render) and never returns: the render hung. A parent that died
+# before the setting (the small program's start-up) has left it to init: then it does not start POV-Ray.
 _DIE_WITH_PARENT = ("import ctypes, os, signal, sys; ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL); "
-                    "os.execvp(sys.argv[1], sys.argv[1:])")
+                    "os.getppid() == int(sys.argv[1]) or os._exit(128 + signal.SIGKILL); "
+                    "os.execvp(sys.argv[2], sys.argv[2:])")
 
 
 def _die_with_parent(cmd: list[str]) -> list[str]:
     """``cmd`` run so that it dies with the thread that started it (Linux; elsewhere ``cmd``)."""
     if not sys.platform.startswith("linux"):
         return cmd
-    return [sys.executable, "-I", "-S", "-c", _DIE_WITH_PARENT, *cmd]
+    return [sys.executable, "-I", "-S", "-c", _DIE_WITH_PARENT, str(os.getpid()), *cmd]
 
 
 class _TermAsExit:
