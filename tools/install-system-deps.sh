@@ -5,7 +5,8 @@
 set -u
 pkgs=()
 command -v povray >/dev/null 2>&1 || pkgs+=(povray)
-if ! ls /usr/lib/*/libLLVM-19*.so* /usr/lib/llvm-19/lib/libLLVM*.so* >/dev/null 2>&1; then
+# either place will do (one ls of both fails when one of them is absent: it reinstalled every time)
+if ! ls /usr/lib/*/libLLVM-19*.so* >/dev/null 2>&1 && ! ls /usr/lib/llvm-19/lib/libLLVM*.so* >/dev/null 2>&1; then
   pkgs+=(libllvm19)
 fi
 [ ${#pkgs[@]} -eq 0 ] && exit 0
