@@ -98,6 +98,20 @@ class Dataset(Sequence):
         name, folder = self._views[i]
         return DatasetView(self, name, os.path.join(self.path, folder))
 
+    def view_pair(self, names) -> tuple:
+        """The two views named ``names = (A, B)``, checked: two names, both in the dataset, different
+        (a one-line :class:`CatadioptricError` otherwise)."""
+        names = list(names)
+        if len(names) != 2:
+            raise CatadioptricError(f"views: expected two view names, got {names}")
+        missing = [n for n in names if n not in self.names]
+        if missing:
+            raise CatadioptricError(f"views: expected names among {self.names}, got unknown {missing}")
+        if names[0] == names[1]:
+            raise CatadioptricError(f"views: expected two different views, got {names[0]!r} twice (a view's pose "
+                                    f"relative to itself has no baseline to find)")
+        return self[names[0]], self[names[1]]
+
     @property
     def camera(self):
         from .cameras import CatadioptricCamera

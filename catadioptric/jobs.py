@@ -116,10 +116,7 @@ def relative_pose_from_labels(dataset, view_a: str, view_b: str, *, noise_px: fl
     from .observations import line_pixels
 
     ds = dataset if isinstance(dataset, Dataset) else Dataset(dataset)
-    for v in (view_a, view_b):
-        if v not in ds.names:
-            raise CatadioptricError(f"views: expected names among {ds.names}, got unknown {v!r}")
-    va, vb = ds[view_a], ds[view_b]
+    va, vb = ds.view_pair((view_a, view_b))
     rng = np.random.default_rng(seed)
     lines = [line_pixels(v, noise_px=noise_px, rng=rng, min_pixels=min_pixels) for v in (va, vb)]
     views = [ViewLines(v["camera"], b.uv, b.family, b.segment) for v, b in zip((va, vb), lines)]

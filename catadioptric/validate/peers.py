@@ -366,13 +366,7 @@ def evaluate_peers(dataset, names, *, noise_levels=(2.0,), draws: int = 1, seed=
     if any(not np.isfinite(x) or x < 0 for x in noise_levels):
         raise CatadioptricError(f"noise: expected non-negative pixel noise levels, got {noise_levels}")
     ds = dataset if isinstance(dataset, Dataset) else Dataset(dataset)
-    if len(names) != 2:
-        raise CatadioptricError(f"views: expected two view names, got {list(names)}")
-    missing = [n for n in names if n not in ds.names]
-    if missing:
-        raise CatadioptricError(f"views: expected names among {ds.names}, got unknown {missing}")
-    if names[0] == names[1]:
-        raise CatadioptricError(f"views: expected two different views, got {names[0]!r} twice")
+    ds.view_pair(names)  # two different views of the dataset, or one line saying what is wrong
     with threadpool_limits(1):
         return _evaluate(ds, list(names), noise_levels, draws, seed, spacing, min_pixels, ransac_options, loss_px,
                          label_path)

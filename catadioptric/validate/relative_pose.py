@@ -144,15 +144,7 @@ def _evaluate_pair(dataset, names, noise_levels, draws, seed, pixels, min_pixels
     from ..observations import line_pixels
 
     ds = dataset if isinstance(dataset, Dataset) else Dataset(dataset)
-    if len(names) != 2:
-        raise CatadioptricError(f"views: expected two view names, got {list(names)}")
-    missing = [n for n in names if n not in ds.names]
-    if missing:
-        raise CatadioptricError(f"views: expected names among {ds.names}, got unknown {missing}")
-    if names[0] == names[1]:
-        raise CatadioptricError(f"views: expected two different views, got {names[0]!r} twice (a view's pose "
-                                f"relative to itself has no baseline to find)")
-    va, vb = ds[names[0]], ds[names[1]]
+    va, vb = ds.view_pair(names)
     pa, pb = va["pose"], vb["pose"]
     R_gt = pb.R @ pa.R.T
     t_gt = pb.t - R_gt @ pa.t
