@@ -269,5 +269,5 @@ def register(sub) -> None:
     register_image_runs(vs)
     register_family_bound(vs)
     register_pixel_residuals(vs)
-    from .peers import register_peers
+    from .peers_report import register_peers
     register_peers(vs)
