@@ -29,7 +29,8 @@ import numpy as np
 from .rotation import skew
 
 __all__ = ["MeetingRays", "meeting_rays", "CrossingFit", "translation_direction_from_crossings", "Parallax", "parallax",
-           "PARALLAX_P", "Twins", "rotation_twins", "rotation_twins_any_family",
+           "PARALLAX_P", "Twins", "rotation_twins", "rotation_twins_any_family", "arc_overlap",
+           "arc_on_plane",
            "rad_per_px", "sides", "meeting", "translation_costs", "residuals2", "residual_weights"]
 
 
@@ -87,7 +88,11 @@ class MeetingRays:
 
 def sides(view, est):
     """Per line of a family: unit ``u`` in its plane, normal to its direction, on the side its
-    pixels are seen (a line's image is the half of its great circle around ``u``)."""
+    pixels are seen (a line's image is the half of its great circle around ``u``). Computed once per
+    estimate (``est.seen_sides``; independent of the direction's sign): the matching asks again for
+    every family assignment."""
+    if est.seen_sides is not None:
+        return est.seen_sides
     s = est.direction
     u = np.cross(est.normals, s)
     u /= np.maximum(np.linalg.norm(u, axis=1, keepdims=True), 1e-300)
@@ -96,6 +101,7 @@ def sides(view, est):
         d = r.directions[r.valid]
         if len(d) and np.mean(d @ u[k]) < 0:
             u[k] = -u[k]
+    est.seen_sides = u
     return u
 
 
@@ -386,7 +392,7 @@ def rotation_twins(view_a, view_b, ea, eb, keys, R, *, chi2_max: float = 9.21, f
                 if m in used:
                     continue
                 ra = _arc(view_a, A, i, B.normals[m], R)
-                if ra is not None and arcs_b[m] is not None and _overlap(ra, arcs_b[m]) >= overlap:
+                if ra is not None and arcs_b[m] is not None and arc_overlap(ra, arcs_b[m]) >= overlap:
                     pairs.append((k, A.lines[i], B.lines[m]))
                     used.add(m)
                     break
@@ -401,8 +407,13 @@ def _arc(view, est, k, n, R=None):
     d = r.directions[r.valid]
     if len(d) < 2:
         return None
-    if R is not None:
-        d = d @ R.T
+    return arc_on_plane(d if R is None else d @ R.T, n)
+
+
+def arc_on_plane(d, n):
+    """The arc ``(lo, hi, e1, e2)`` that rays ``d (M, 3)`` (two or more) cover on the great circle of
+    the plane with unit normal ``n``: angles from the first ray's projection ``e1``, ``e2 = n x e1``
+    (for :func:`arc_overlap`)."""
     e1 = d[0] - (d[0] @ n) * n
     e1 /= max(np.linalg.norm(e1), 1e-300)
     e2 = np.cross(n, e1)
@@ -410,7 +421,7 @@ def _arc(view, est, k, n, R=None):
     return float(phi.min()), float(phi.max()), e1, e2
 
 
-def _overlap(a, b) -> float:
+def arc_overlap(a, b) -> float:
     """The overlap of two arcs (each ``(lo, hi, e1, e2)`` in its own basis, on one plane) over the shorter."""
     lo_a, hi_a, e1a, e2a = a
     lo_b, hi_b, e1b, e2b = b

@@ -9,7 +9,7 @@ the family refitted, so one bad line cannot sink its family.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -49,7 +49,8 @@ class FamilyEstimate:
     from ``centre`` and its standard error (non-central; NaN for central: one view does not place
     a line); ``inliers``: a boolean mask per kept line over its pixels; ``sigma`` (pixels) and
     ``rms`` of the fit; ``dropped``: ``{line index: reason}``; ``normal_covs (L, 3, 3)``: the
-    covariance of each plane's normal (plane fits; None for the exact non-central fit)."""
+    covariance of each plane's normal (plane fits; None for the exact non-central fit); ``seen_sides``: see
+    :func:`~catadioptric.pose.central.sides`."""
 
     key: object
     direction: np.ndarray
@@ -65,6 +66,9 @@ class FamilyEstimate:
     rms: float
     dropped: dict
     normal_covs: np.ndarray | None = None
+    #: per kept line, the unit vector in its plane, normal to the direction, on the side its pixels are
+    #: seen (:func:`~catadioptric.pose.central.sides` fills it the first time it is asked)
+    seen_sides: np.ndarray | None = field(default=None, repr=False)
 
 
 _NAMED = re.compile(r"uv_sets\[(\d+)\]")

@@ -37,6 +37,7 @@ from .families import FamilyEstimate, ViewLines, fit_view_families, is_central
 from .rotation import rotation_angle_deg
 from .scale import ScaleOptions, refine_far_or_free, scale_by_search
 from .signs import sign_candidates
+from .static import static_rotation
 from .translation import ray_depths, triangulate_line
 
 __all__ = ["Candidate", "RelativePose", "relative_pose", "matching_bar", "MATCHING_BARS"]
@@ -603,41 +604,6 @@ def _parallax_verdict(best, rays, view_a, view_b, ea, eb, keys, n_matched, notes
     return par, t_best
 
 
-#: a camera turned in place (no parallax) is told apart from its rivals by the lines its rotation
-#: alone shows again unchanged: the answer needs at least this many such lines and this many times as
-#: many as any rival rotation (:func:`_static_verdict`; on the six static pairs of validate/real the
-#: right rotation showed 18-28, its rivals 0-2)
-STATIC_TWINS_MIN = 10
-STATIC_TWINS_OVER_RIVAL = 4.0
-
-
-def _static_verdict(res, scored, view_a, view_b, ea, eb):
-    """For an ambiguous central answer that shows no parallax (a camera turned in place): a note and
-    a decisive verdict when its rotation alone shows at least :data:`STATIC_TWINS_MIN` lines of A
-    again unchanged in B (:func:`~catadioptric.pose.central.rotation_twins_any_family`) and every
-    rival rotation (the other assignments' rotations, more than ``_SAME_DEG`` away) at most
-    1 / :data:`STATIC_TWINS_OVER_RIVAL` as many. Moving cameras show hardly any such lines, and the
-    verdict stands as the matching gave it; None then."""
-    from .central import rotation_twins_any_family
-
-    if res.model != "central" or res.translation_observable:
-        return None
-    mine = rotation_twins_any_family(view_a, view_b, ea, eb, res.R)
-    if mine < STATIC_TWINS_MIN:
-        return None
-    rivals, seen = [], [res.R]
-    for _, m, _ in scored:
-        if any(rotation_angle_deg(m.R @ R.T) <= _SAME_DEG for R in seen):
-            continue
-        seen.append(m.R)
-        rivals.append(rotation_twins_any_family(view_a, view_b, ea, eb, m.R))
-        if rivals[-1] * STATIC_TWINS_OVER_RIVAL > mine:
-            return None
-    most = max(rivals, default=0)
-    return (f"decisive as a camera turned in place: its rotation alone shows {mine} lines of A again unchanged in B, "
-            f"the {len(rivals)} rival rotations at most {most} (the margin of the matching alone is below its bar)")
-
-
 def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families, max_rotation_deg,
                model_error_px=0.0, decisive_matching=None):
     """Relative pose when nothing is matched across the views (lines from each image alone): the
@@ -684,29 +650,31 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
         finite = [s for s in others if np.isfinite(s)]
         margin = max(0.0, min(finite) - best_score) if finite and np.isfinite(best_score) else 0.0
     no_lines = sum(1 for _, _, lm in scored if lm.t is None and lm.n_crossings > 0)
-    # relabel: B's families as A's (with the assignment's signs), matched lines with one id
-    # lines left unmatched keep an id of their own view (seen in one view only)
-    a_id = [f"a{i}" for i in range(len(view_a.uv))]
-    b_id = [f"b{j}" for j in range(len(view_b.uv))]
-    for a_line, b_line in lines.pairs:
-        a_id[a_line] = b_id[b_line] = f"line{a_line}"
-    fam_b = [best.mapping[f][0] if f in best.mapping else ("unmatched", f) for f in view_b.family]
-    va = ViewLines(view_a.cam, view_a.uv, view_a.family, a_id)
-    vb = ViewLines(view_b.cam, view_b.uv, fam_b, b_id)
-    ends = {a: (ea[a].direction, eb[b].direction * sign) for b, (a, sign) in best.mapping.items()}
+    bar = max(decisive, matching_bar(len(scored)) if decisive_matching is None else decisive_matching)
+    static, conflict = None, None
+    if is_central(view_a.cam) and why_unscored is None:
+        static = static_rotation(view_a, view_b, ea, eb, [m.R for _, m, _ in scored], same_deg=_SAME_DEG)
+    if static is not None and margin >= bar and rotation_angle_deg(static.R @ best.R.T) > _SAME_DEG:
+        conflict = (f"ambiguous: the matching's answer (margin {margin:.1f}) and the rotation that shows "
+                    f"{len(static.twins)} lines again unchanged (a camera turned in place) are "
+                    f"{rotation_angle_deg(static.R @ best.R.T):.1f} deg apart")
+        static = None
+    if static is not None:  # the camera turned in place: its assignment goes through the labelled path
+        scored.insert(0, scored.pop(static.index))
+        best_score, best, lines = scored[0]
+    va, vb, ends = _labelled(view_a, view_b, ea, eb, best, lines)
     res = _relative_pose(va, vb, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families,
                          max_rotation_deg, model_error_px)
     res.candidates = [Candidate({str(b): (str(a), int(s)) for b, (a, s) in m.mapping.items()}, m.R,
                                 None if lm.t is None else lm.t, score, m.cost, None, lm) for score, m, lm in scored]
     res.candidates[0] = Candidate(res.candidates[0].signs, res.R, res.t, best_score, best.cost, res.cov, lines)
     res.margin = float(margin)
-    bar = max(decisive, matching_bar(len(scored)) if decisive_matching is None else decisive_matching)
-    res.ambiguous = bool(margin < bar) or why_unscored is not None
-    static = _static_verdict(res, scored, view_a, view_b, ea, eb) if res.ambiguous and why_unscored is None else None
+    res.ambiguous = bool(margin < bar) or why_unscored is not None or conflict is not None
+    extra = [] if conflict is None else [conflict]
     if static is not None:
         res.ambiguous = False
+        extra.append(_turned_in_place(res, static))
     prior = "" if max_rotation_deg is None else f" (within the prior max_rotation_deg = {max_rotation_deg})"
-    extra = [] if static is None else [static]
     if no_lines:
         extra.append(f"{no_lines} of the {len(scored)} assignments matched no lines (no two meeting points of A near "
                      f"one of B under their rotation): scored as finding none of A's meeting points in B")
@@ -719,3 +687,37 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
     res.notes += [f"family {k} of A not used: {v}" for k, v in fail_a.items()]
     res.notes += [f"family {k} of B not used: {v}" for k, v in fail_b.items()]
     return res
+
+
+def _labelled(view_a, view_b, ea, eb, match, lines):
+    """The two views relabelled by a family assignment ``match`` and its matched ``lines``: B's
+    families as A's (with the assignment's signs), matched lines with one id, the others an id of
+    their own view (seen in one view only); and the families' matched ends."""
+    a_id = [f"a{i}" for i in range(len(view_a.uv))]
+    b_id = [f"b{j}" for j in range(len(view_b.uv))]
+    for a_line, b_line in lines.pairs:
+        a_id[a_line] = b_id[b_line] = f"line{a_line}"
+    fam_b = [match.mapping[f][0] if f in match.mapping else ("unmatched", f) for f in view_b.family]
+    va = ViewLines(view_a.cam, view_a.uv, view_a.family, a_id)
+    vb = ViewLines(view_b.cam, view_b.uv, fam_b, b_id)
+    ends = {a: (ea[a].direction, eb[b].direction * sign) for b, (a, sign) in match.mapping.items()}
+    return va, vb, ends
+
+
+def _turned_in_place(res, static) -> str:
+    """``res`` as the pose of a camera turned in place (:func:`~catadioptric.pose.static.static_rotation`):
+    the rotation from the lines seen again unchanged, and ``t`` zero, unless the answer's meeting
+    points show a translation that matched more lines than the rotation alone shows unchanged (a
+    camera that moved, seeing far lines: its rotation and translation stand). Returns the note."""
+    if res.translation_observable and res.t is not None and res.lines_matched > len(static.twins):
+        return (f"decisive by the lines seen again unchanged: {len(static.twins)} under its rotation, the "
+                f"{static.rivals} rival rotations at most {static.rival_twins}; the translation matched more "
+                f"lines ({res.lines_matched}) and stands")
+    res.R = static.R
+    res.t = np.zeros(3)
+    res.cov = np.full((6, 6), np.nan)
+    res.cov[:3, :3] = static.cov
+    res.parallax = Parallax(float("nan"), 0, float("nan"), False, 0, float("nan"))
+    res.candidates[0] = Candidate(res.candidates[0].signs, res.R, res.t, res.candidates[0].cost,
+                                  res.candidates[0].direction_cost, res.cov, res.candidates[0].fit)
+    return static.note()
