@@ -31,7 +31,7 @@ from .rotation import skew
 __all__ = ["MeetingRays", "meeting_rays", "CrossingFit", "translation_direction_from_crossings", "Parallax", "parallax",
            "PARALLAX_P", "Twins", "rotation_twins", "rotation_twins_any_family", "arc_overlap",
            "arc_on_plane",
-           "rad_per_px", "sides", "meeting", "translation_costs", "residuals2", "residual_weights"]
+           "rad_per_px", "sides", "meeting", "translation_costs", "truncated_residuals2", "residuals2", "residual_weights"]
 
 
 @dataclass
@@ -207,6 +207,13 @@ def translation_costs(A, p, q, T, thr, c2, W=None, ang=None, min_parallax=None):
     signs decide, and rays more nearly parallel than this are exempt (the rule of the matching
     of detected lines, pose/matching.py, whose meeting points carry offsets their fits do not
     know of)."""
+    r2, inl = truncated_residuals2(A, p, q, T, thr, c2, W=W, ang=ang, min_parallax=min_parallax)
+    return np.sum(r2, axis=1), inl
+
+
+def truncated_residuals2(A, p, q, T, thr, c2, W=None, ang=None, min_parallax=None):
+    """The terms of :func:`translation_costs`: squared residuals ``(H, K)`` (:func:`residuals2`), ``c2``
+    for the rays that are not inliers, and the inlier masks ``(H, K)``."""
     r2 = residuals2(A, T, thr, W)
     if min_parallax is None:
         ahead = _cheirality_violation(p, q, T) <= (thr if W is None else 3.0 * ang)
@@ -214,7 +221,7 @@ def translation_costs(A, p, q, T, thr, c2, W=None, ang=None, min_parallax=None):
         lam, mu, pq = _depths(p, q, T)
         ahead = ((lam > 0) & (mu > 0)) | (pq > np.cos(min_parallax))[None, :]
     inl = (r2 <= c2) & ahead
-    return np.sum(np.where(inl, r2, c2), axis=1), inl
+    return np.where(inl, r2, c2), inl
 
 
 def residuals2(A, T, thr, W=None):

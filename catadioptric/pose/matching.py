@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._numeric import cross
-from .central import meeting, rad_per_px, residuals2, sides, translation_costs
+from .central import meeting, rad_per_px, residuals2, sides, translation_costs, truncated_residuals2
 from .rotation import refine_rotation, rotation_angle_deg, rotation_from_directions
 
 __all__ = ["FamilyMatch", "family_matches", "LineMatch", "LinesInOrder", "match_lines"]
@@ -426,22 +426,25 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
     ra = xa @ R.T
     rpp = max(rad_per_px(view_a.cam), rad_per_px(view_b.cam))
     thr = 3.0 * max(0.5, 0.5 * sigma_px) * np.sqrt(2.0) * rpp
-    b_cross = {(int(l1), int(l2)): j for j, (l1, l2) in enumerate(lb)}
+    # B's meeting ray of lines (l1, l2), -1 where none: a table over B's lines (one more: "unmatched")
+    n_b = max(len(view_a.uv), len(view_b.uv)) + 1
+    b_cross = np.full((n_b, n_b), -1, dtype=np.int32)
+    b_cross[lb[:, 0], lb[:, 1]] = np.arange(len(lb))
 
     def scored(pairs, t):
         """The verified cost of lines matched one to one: a meeting ray of A counts only where the
         lines matched to its two lines meet in B, on its epipolar plane and in front of both centres
         (chance agreements of a wrong rotation spread over many pairs of lines and do not survive the
         one-to-one matching of the lines)."""
-        to_b = dict(pairs)
-        vi, vj = [], []
-        for i, (l1, l2) in enumerate(la):
-            j = b_cross.get((to_b.get(int(l1), -1), to_b.get(int(l2), -1)))
-            if j is not None:
-                vi.append(i)
-                vj.append(j)
+        to_b = np.full(n_b, n_b - 1, dtype=np.int64)  # a line of A matched to nothing: B's last row, empty
+        if pairs:
+            pa_, pb_ = np.array(pairs, dtype=np.int64).T
+            to_b[pa_] = pb_
+        j_all = b_cross[to_b[la[:, 0]], to_b[la[:, 1]]]
+        vi = np.flatnonzero(j_all >= 0)
+        vj = j_all[vi]
         n_ok, cost_v = 0, c2 * len(xa)
-        if vi:
+        if len(vi):
             P, Q = ra[vi], xb[vj]
             Av = np.cross(P, Q)
             Av /= np.maximum(np.linalg.norm(Av, axis=1), 1e-300)[:, None]
@@ -487,13 +490,14 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
             return []
         T = np.concatenate([T, -T])
 
+        # the candidate pairs come grouped by their meeting ray of A (ci does not decrease)
+        starts = np.flatnonzero(np.r_[True, ci[1:] != ci[:-1]])
+
         def per_crossing_cost(Ts):
-            cost, inl = translation_costs(A, p_, q_, Ts, thr, c2, min_parallax=3.0 * thr)  # per candidate pair
-            r2 = residuals2(A, Ts, thr)
-            r2 = np.where(inl, r2, c2)
+            r2, _ = truncated_residuals2(A, p_, q_, Ts, thr, c2, min_parallax=3.0 * thr)  # per candidate pair
+            # each meeting ray of A at its best candidate (c2 at most); the rays with none cost c2
             best = np.full((len(Ts), len(xa)), c2)
-            for k in range(len(Ts)):
-                np.minimum.at(best[k], ci, r2[k])
+            best[:, ci[starts]] = np.minimum(np.minimum.reduceat(r2, starts, axis=1), c2)
             return best.sum(axis=1), r2
 
         def best_pairs(t):
