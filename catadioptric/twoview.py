@@ -261,6 +261,9 @@ def image_pair_summary(result: ImagePairPose) -> dict:
         "translation_observable": p.translation_observable,
         "rotation_std_deg": p.rotation_std_deg, "translation_std": p.translation_std,
         "ambiguous": p.ambiguous, "margin": p.margin, "lines_matched": p.lines_matched, "sigma_px": p.sigma_px,
+        "turned_in_place": None if p.turned_in_place is None else {
+            "lines_seen_again": len(p.turned_in_place.twins), "rival_rotations": p.turned_in_place.rivals,
+            "rival_most": p.turned_in_place.rival_twins},
         "matched_families": fams,
         "candidates": [{"mapping": c.signs, "R": c.R, "t": c.t, "cost": c.cost} for c in p.candidates],
         "notes": p.notes,

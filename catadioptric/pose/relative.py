@@ -136,6 +136,9 @@ class RelativePose:
     #: the margin the answer needed to be decisive (``decisive``, more when the first stage is weak)
     bar: float | None = None
     parallax: object = None
+    #: the :class:`~catadioptric.pose.static.StaticRotation` that decided the answer (a camera turned
+    #: in place: the lines its rotation alone shows again unchanged), or None
+    turned_in_place: object = None
 
     @property
     def translation_observable(self) -> bool:
@@ -713,6 +716,7 @@ def _turned_in_place(res, static) -> str:
         return (f"decisive by the lines seen again unchanged: {len(static.twins)} under its rotation, the "
                 f"{static.rivals} rival rotations at most {static.rival_twins}; the translation matched more "
                 f"lines ({res.lines_matched}) and stands")
+    res.turned_in_place = static
     res.R = static.R
     res.t = np.zeros(3)
     res.cov = np.full((6, 6), np.nan)

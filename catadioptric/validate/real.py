@@ -117,6 +117,8 @@ def _pose_row(res, truths, label):
             "families": len(res.family_map), "lines_matched": int(p.lines_matched),
             "t": None if p.t is None else np.asarray(p.t, float).tolist(),
             "translation_observable": bool(getattr(p, "translation_observable", True)),
+            "lines_seen_again": None if p.turned_in_place is None else len(p.turned_in_place.twins),
+            "rival_most": None if p.turned_in_place is None else p.turned_in_place.rival_twins,
             "candidates": cands, "notes": list(p.notes)}
 
 
@@ -293,7 +295,8 @@ def real_markdown(res: dict, command: str) -> str:
     L += [f"| {r['image']} | {r['axis']} | {_f(r['angle_deg'])} | {r['family_lines']} | {r['families']} | "
           f"{_f(r.get('default_angle_deg'))} |" for r in res["board_axes"]]
     L += ["", "## The static camera (no mask; the truth is the identity)", "",
-          "| pair | prior (deg) | turn (deg) | verdict (margin) | families / lines matched | translation | "
+          "| pair | prior (deg) | turn (deg) | verdict (the matching's margin; what decided) | families / lines matched | "
+          "translation | "
           "best candidates: turn (deg) |", "|---|---|---|---|---|---|---|"]
     for r in res["static_pairs"]:
         prior = "none" if r.get("prior_deg") is None else f"{r['prior_deg']:g}"
@@ -303,6 +306,8 @@ def real_markdown(res: dict, command: str) -> str:
         tr = "not observable (no parallax)" if not r["translation_observable"] else (
             "none" if r["t"] is None else "direction " + str(np.round(r["t"], 3).tolist()))
         verdict = ("**ambiguous**" if r["ambiguous"] else "decisive") + f" ({r['margin']:.1f})"
+        if r.get("lines_seen_again") is not None:
+            verdict += f"; turned in place: {r['lines_seen_again']} lines seen again, rivals {r['rival_most']}"
         cands = ", ".join(f"{c['turn_deg']:.1f}" for c in r["candidates"][:4])
         L.append(f"| {r['pair']} | {prior} | {r['error_deg']:.3f} | {verdict} | {r['families']} / {r['lines_matched']} | "
                  f"{tr} | {cands} |")
