@@ -24,6 +24,7 @@ distances to first order).
 """
 from __future__ import annotations
 
+import heapq
 from dataclasses import dataclass
 
 import numpy as np
@@ -169,39 +170,40 @@ def merge_pieces(pieces: list[LinePiece], *, threshold: float = 1.0, merge_angle
         return pieces
     cos_max = np.cos(np.radians(merge_angle_deg))
     alive = [True] * len(pieces)
-    cache: dict = {}
+    # every pair of live pieces whose planes are within merge_angle_deg is tested once (a pair's test
+    # does not change while both live); the pairs that merge wait in a heap by (rms, i, j): the
+    # smallest rms first, ties to the first pair in index order
+    heap: list = []
+    found: dict = {}
 
-    def test(i, j):
-        key = (i, j)
-        if key not in cache:
-            if _gap(pieces[i], pieces[j]) > max_gap:
-                cache[key] = (False, None, np.inf, None)
-            else:
-                cache[key] = _joint(pieces[i], pieces[j], threshold)
-        return cache[key]
+    def push(i, j):
+        if _gap(pieces[i], pieces[j]) > max_gap:
+            return
+        ok, n, rms, rays = _joint(pieces[i], pieces[j], threshold)
+        if ok:
+            found[i, j] = (n, rays)
+            heapq.heappush(heap, (rms, i, j))
 
-    while True:
-        idx = [k for k in range(len(pieces)) if alive[k]]
-        if len(idx) < 2:
-            break
-        N = np.array([pieces[k].normal for k in idx])
-        c = np.abs(N @ N.T)
-        best = None
-        for a in range(len(idx)):
-            for b in np.flatnonzero(c[a, a + 1:] >= cos_max) + a + 1:
-                i, j = idx[a], idx[int(b)]
-                ok, n, rms, rays = test(i, j)
-                if ok and (best is None or rms < best[0]):
-                    best = (rms, i, j, n, rays)
-        if best is None:
-            break
-        rms, i, j, n, rays = best
+    N = np.array([p.normal for p in pieces])
+    c = np.abs(N @ N.T)
+    for i in range(len(pieces)):
+        for j in np.flatnonzero(c[i, i + 1:] >= cos_max) + i + 1:
+            push(i, int(j))
+    while heap:
+        rms, i, j = heapq.heappop(heap)
+        if not (alive[i] and alive[j]):
+            continue
+        n, rays = found.pop((i, j))
         p, q = pieces[i], pieces[j]
         pieces.append(LinePiece(uv=np.concatenate([p.uv, q.uv]), rays=rays, normal=n, rms=rms,
                                 sources=p.sources + q.sources, polarity=p.polarity if p.length >= q.length
                                 else q.polarity))
         alive[i] = alive[j] = False
         alive.append(True)
+        m = len(pieces) - 1
+        for k in range(m):
+            if alive[k] and abs(float(pieces[k].normal @ n)) >= cos_max:
+                push(k, m)
     return [p for p, a in zip(pieces, alive) if a]
 
 

@@ -140,6 +140,21 @@ def log_nfa(eps_agree: np.ndarray, n_free: int) -> float:
     return float(log_comb + np.sum(np.log(e)))
 
 
+def log_nfa_rows(eps: np.ndarray, agree: np.ndarray, n_free: int) -> np.ndarray:
+    """:func:`log_nfa` of every row of ``eps (H, L)`` over its lines ``agree (H, L)`` at once (the
+    hypotheses of one round of :func:`group_families`): ``(H,)``."""
+    from scipy.special import gammaln
+
+    k = agree.sum(axis=1)
+    e = np.sort(np.where(agree, eps, np.inf), axis=1)  # each row's agreeing lines first, smallest first
+    use = (np.arange(e.shape[1])[None, :] >= 2) & (np.arange(e.shape[1])[None, :] < k[:, None])
+    m = np.maximum(n_free - 2, k - 2)
+    log_comb = gammaln(m + 1) - gammaln(k - 1) - gammaln(m - k + 3)
+    with np.errstate(divide="ignore"):
+        logs = np.where(use, np.log(np.where(use, e, 1.0)), 0.0)
+    return np.where(k <= 2, 0.0, log_comb + logs.sum(axis=1))
+
+
 def concurrent(cam, s, ends, radius: float) -> bool:
     """True when most of the lines (end pixels ``ends (k, 2, 2)``) end within ``radius`` pixels of
     an image of ``+s`` or ``-s``: lines through one point (a building's corner) whose planes all
@@ -193,7 +208,7 @@ def group_families(planes: LinePlanes, options: GroupingOptions = GroupingOption
             break
         n_free = int(free.sum())
         # rank by significance (most negative log NFA first)
-        scores = np.array([log_nfa(np.minimum(band[h, agree[h]], 1.0), n_free) for h in cand])
+        scores = log_nfa_rows(np.minimum(band[cand], 1.0), agree[cand], n_free)
         h = int(cand[np.argmin(scores)])
         lines = np.flatnonzero(agree[h])
         s = S[h]
