@@ -18,7 +18,7 @@ SUBCOMMAND_MODULES = [
     "catadioptric.export",
     "catadioptric.detect.cli",
     "catadioptric.twoview",
-    "catadioptric.pose.chessboard",
+    "catadioptric.cli_chessboard",
 ]
 
 

@@ -188,7 +188,7 @@ LAYERS = [
     ["export", "pose"],
     ["twoview"],  # two images: detect, then pose
     ["validate"],
-    ["jobs", "cli_centrality"],
+    ["jobs", "cli_centrality", "cli_chessboard"],
     ["cli"],
     ["demo"],
 ]
