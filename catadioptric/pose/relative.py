@@ -24,7 +24,7 @@ Steps (docs/relative_pose.md):
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -383,7 +383,10 @@ def _within_prior(cands, max_rotation_deg, what):
 
 
 def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families,
-                   max_rotation_deg=None, model_error_px=0.0, decisive_matching=None):
+                   max_rotation_deg=None, model_error_px=0.0, decisive_matching=None, fitted=None):
+    """:func:`relative_pose`; ``fitted``: each view's families already fitted with these options
+    (``{family: FamilyEstimate}`` per view, keyed as the views' families; :func:`_unmatched` passes its
+    own), used instead of fitting them again."""
     if not isinstance(view_a, ViewLines) or not isinstance(view_b, ViewLines):
         raise CatadioptricError(f"view_a, view_b: expected ViewLines, got {type(view_a).__name__} and "
                                 f"{type(view_b).__name__}")
@@ -417,10 +420,13 @@ def _relative_pose(view_a, view_b, ends, seed, f_scale, pixel_sigma, decisive, m
     hints_a = {k: ends[k][0] for k in common} if ends is not None else None
     hints_b = {k: ends[k][1] for k in common} if ends is not None else None
     # each view: planes of its lines and its families' directions (stages 1 and the refinement's start)
-    ea, fail_a = fit_view_families(view_a, keys=common, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
-                                   hints=hints_a, max_pixels=max_pixels, exact=False, model_error_px=model_error_px)
-    eb, fail_b = fit_view_families(view_b, keys=common, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
-                                   hints=hints_b, max_pixels=max_pixels, exact=False, model_error_px=model_error_px)
+    if fitted is None:
+        ea, fail_a = fit_view_families(view_a, keys=common, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
+                                       hints=hints_a, max_pixels=max_pixels, exact=False, model_error_px=model_error_px)
+        eb, fail_b = fit_view_families(view_b, keys=common, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
+                                       hints=hints_b, max_pixels=max_pixels, exact=False, model_error_px=model_error_px)
+    else:
+        (ea, fail_a), (eb, fail_b) = (_refitted(f, common, h) for f, h in zip(fitted, (hints_a, hints_b)))
     notes = [f"family {k} not used in view A: {v}" for k, v in fail_a.items()]
     notes += [f"family {k} not used in view B: {v}" for k, v in fail_b.items()]
     keys = [k for k in common if k in ea and k in eb]
@@ -666,8 +672,10 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
         scored.insert(0, scored.pop(static.index))
         best_score, best, lines = scored[0]
     va, vb, ends = _labelled(view_a, view_b, ea, eb, best, lines)
+    # the labelled path's families are these, B's under A's keys: not fitted again
+    fitted = (ea, {a: replace(eb[b], key=a) for b, (a, _) in best.mapping.items()})
     res = _relative_pose(va, vb, ends, seed, f_scale, pixel_sigma, decisive, max_pixels, min_families,
-                         max_rotation_deg, model_error_px)
+                         max_rotation_deg, model_error_px, fitted=fitted)
     res.candidates = [Candidate({str(b): (str(a), int(s)) for b, (a, s) in m.mapping.items()}, m.R,
                                 None if lm.t is None else lm.t, score, m.cost, None, lm) for score, m, lm in scored]
     res.candidates[0] = Candidate(res.candidates[0].signs, res.R, res.t, best_score, best.cost, res.cov, lines)
@@ -725,3 +733,19 @@ def _turned_in_place(res, static) -> str:
     res.candidates[0] = Candidate(res.candidates[0].signs, res.R, res.t, res.candidates[0].cost,
                                   res.candidates[0].direction_cost, res.cov, res.candidates[0].fit)
     return static.note()
+
+
+def _refitted(fitted: dict, keys, hints) -> tuple[dict, dict]:
+    """:func:`~catadioptric.pose.families.fit_view_families`'s answer for ``keys`` from families
+    ``fitted`` with the same options: each direction (and Pluecker line) signed as its hint says."""
+    est, fail = {}, {}
+    for k in keys:
+        if k not in fitted:
+            fail[k] = "not fitted"
+            continue
+        e = fitted[k]
+        h = None if hints is None else hints.get(k)
+        if h is not None and e.direction @ np.asarray(h, float) < 0:
+            e = replace(e, direction=-e.direction, pluecker=-e.pluecker)
+        est[k] = e
+    return est, fail
