@@ -155,11 +155,10 @@ def _joint(p: LinePiece, q: LinePiece, threshold: float):
     return ok, n, rms, rays
 
 
-def _gap(p: LinePiece, q: LinePiece) -> float:
-    """The smallest image distance between a point of ``p`` and one of ``q`` (pixels)."""
-    from scipy.spatial import cKDTree
-
-    return float(cKDTree(q.uv).query(p.uv)[0].min())
+def _gap(p: LinePiece, tree_q) -> float:
+    """The smallest image distance between a point of ``p`` and one of the piece whose points
+    ``tree_q`` (a ``cKDTree``) holds (pixels)."""
+    return float(tree_q.query(p.uv)[0].min())
 
 
 def merge_pieces(pieces: list[LinePiece], *, threshold: float = 1.0, merge_angle_deg: float = 10.0,
@@ -173,11 +172,16 @@ def merge_pieces(pieces: list[LinePiece], *, threshold: float = 1.0, merge_angle
     # every pair of live pieces whose planes are within merge_angle_deg is tested once (a pair's test
     # does not change while both live); the pairs that merge wait in a heap by (rms, i, j): the
     # smallest rms first, ties to the first pair in index order
+    from scipy.spatial import cKDTree
+
     heap: list = []
     found: dict = {}
+    trees: dict = {}  # each piece's points, for the gaps
 
     def push(i, j):
-        if _gap(pieces[i], pieces[j]) > max_gap:
+        if j not in trees:
+            trees[j] = cKDTree(pieces[j].uv)
+        if _gap(pieces[i], trees[j]) > max_gap:
             return
         ok, n, rms, rays = _joint(pieces[i], pieces[j], threshold)
         if ok:

@@ -146,13 +146,16 @@ def log_nfa_rows(eps: np.ndarray, agree: np.ndarray, n_free: int) -> np.ndarray:
     from scipy.special import gammaln
 
     k = agree.sum(axis=1)
-    e = np.sort(np.where(agree, eps, np.inf), axis=1)  # each row's agreeing lines first, smallest first
-    use = (np.arange(e.shape[1])[None, :] >= 2) & (np.arange(e.shape[1])[None, :] < k[:, None])
+    if eps.shape[1] < 2:
+        return np.zeros(len(k))
+    # every agreeing line's log, less the two smallest (the lines that fix the direction)
+    logs = np.log(np.where(agree, eps, 1.0)).sum(axis=1)
+    two = np.partition(np.where(agree, eps, np.inf), 1, axis=1)[:, :2]
+    with np.errstate(invalid="ignore"):
+        logs = logs - np.log(np.where(np.isfinite(two), two, 1.0)).sum(axis=1)
     m = np.maximum(n_free - 2, k - 2)
     log_comb = gammaln(m + 1) - gammaln(k - 1) - gammaln(m - k + 3)
-    with np.errstate(divide="ignore"):
-        logs = np.where(use, np.log(np.where(use, e, 1.0)), 0.0)
-    return np.where(k <= 2, 0.0, log_comb + logs.sum(axis=1))
+    return np.where(k <= 2, 0.0, log_comb + logs)
 
 
 def concurrent(cam, s, ends, radius: float) -> bool:
@@ -256,11 +259,14 @@ def _split(N, C, lines, s, floor2, min_lines, gain, tight=4.0):
     H = H[keep] / hn[keep, None]
     X = _chi2(N[lines], C[lines], H, floor2)  # (H, k)
     tight_n = (X <= tight).sum(axis=1)
-    best = None
+    best, seen = None, set()
     for h in np.argsort(-tight_n)[:20]:
         a = X[h] <= tight
         if a.sum() < min_lines or (~a).sum() < min_lines:
             continue
+        if a.tobytes() in seen:  # the same split again (through two other lines of one set): the same totals
+            continue
+        seen.add(a.tobytes())
         sa, _ = refine_direction(N, C, lines[a], H[h])
         rest = lines[~a]
         # the rest's own best direction (through two of its lines)
