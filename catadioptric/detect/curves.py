@@ -62,15 +62,20 @@ def _runs(inlier: np.ndarray, max_gap: int) -> list[tuple[int, int]]:
     return list(zip(starts.tolist(), ends.tolist()))
 
 
-def _best_run(r: np.ndarray, thr: float, max_gap: int) -> tuple[int, int, float]:
-    inl = r <= thr
-    best = (0, 0, -1.0)
-    for a, b in _runs(inl, max_gap):
-        seg = r[a:b]
-        score = float(np.sum(np.where(seg <= thr, 1.0 - (seg / thr) ** 2, 0.0)))
-        if score > best[2]:
-            best = (a, b, score)
-    return best
+def _best_run(R: np.ndarray, thr: float, max_gap: int) -> tuple[int, int, int] | None:
+    """The best run over the rows of ``R (H, M)`` (each hypothesis' distances along the chain): the
+    runs of :func:`_runs` in every row, each scored ``sum (1 - (r / thr)^2)`` over its points within
+    ``thr``; ``(row, a, b)`` of the highest score (the first row, then the first run, on a tie), or
+    None when no point is within ``thr``."""
+    rows, cols = np.nonzero(R <= thr)
+    if len(rows) == 0:
+        return None
+    new = np.r_[True, (rows[1:] != rows[:-1]) | (np.diff(cols) > max_gap + 1)]
+    first = np.flatnonzero(new)
+    last = np.r_[first[1:], len(rows)] - 1
+    score = np.add.reduceat(1.0 - (R[rows, cols] / thr) ** 2, first)
+    k = int(np.argmax(score))
+    return int(rows[first[k]]), int(cols[first[k]]), int(cols[last[k]]) + 1
 
 
 def _hypotheses(rays: Rays, min_span: int, max_h: int) -> np.ndarray:
@@ -106,15 +111,11 @@ def split_chain(uv: np.ndarray, rays: Rays, *, threshold: float = 1.0, min_point
         H = _hypotheses(sub.take(np.flatnonzero(sub.ok)), min(min_span, int(sub.ok.sum()) - 1), hypotheses)
         if len(H) == 0:
             continue
-        R = plane_distances(H, sub)
-        best = (0, 0, -1.0, None)
-        for h in range(len(H)):
-            ra, rb, sc = _best_run(R[h], threshold, max_gap)
-            if sc > best[2]:
-                best = (ra, rb, sc, H[h])
-        ra, rb, _, n = best
-        if rb - ra < min_points:
+        best = _best_run(plane_distances(H, sub), threshold, max_gap)
+        if best is None or best[2] - best[1] < min_points:
             continue
+        h, ra, rb = best
+        n = H[h]
         for _ in range(2):  # refit on the run, regrow the run from the refitted plane
             n = refine_plane(sub.take(slice(ra, rb)), n)
             r = plane_distances(n, sub)
