@@ -179,7 +179,17 @@ def merge_pieces(pieces: list[LinePiece], *, threshold: float = 1.0, merge_angle
     found: dict = {}
     trees: dict = {}  # each piece's points, for the gaps
 
+    boxes: dict = {}  # each piece's bounding box: a gap no shorter than the boxes' distance
+
+    def box(k):
+        if k not in boxes:
+            boxes[k] = (pieces[k].uv.min(axis=0), pieces[k].uv.max(axis=0))
+        return boxes[k]
+
     def push(i, j):
+        (lo_i, hi_i), (lo_j, hi_j) = box(i), box(j)
+        if np.hypot(*np.maximum(np.maximum(lo_i - hi_j, lo_j - hi_i), 0.0)) > max_gap:
+            return
         if j not in trees:
             trees[j] = cKDTree(pieces[j].uv)
         if _gap(pieces[i], trees[j]) > max_gap:

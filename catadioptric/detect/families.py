@@ -149,7 +149,8 @@ def log_nfa_rows(eps: np.ndarray, agree: np.ndarray, n_free: int) -> np.ndarray:
     if eps.shape[1] < 2:
         return np.zeros(len(k))
     # every agreeing line's log, less the two smallest (the lines that fix the direction)
-    logs = np.log(np.where(agree, eps, 1.0)).sum(axis=1)
+    rows, cols = np.nonzero(agree)
+    logs = np.bincount(rows, weights=np.log(eps[rows, cols]), minlength=len(k))
     two = np.partition(np.where(agree, eps, np.inf), 1, axis=1)[:, :2]
     with np.errstate(invalid="ignore"):
         logs = logs - np.log(np.where(np.isfinite(two), two, 1.0)).sum(axis=1)
