@@ -17,6 +17,7 @@ between two views ``x_B = R x_A + t`` (mirror frames). Lines are Pluecker ``(s, 
 | `refine_with_crossings` | `epipolar.py` | directions with covariances, inlier meeting rays, R | R and the direction between the centres refined together, covariance |
 | `family_matches` | `matching.py` | each view's families (unmatched) | the assignments of B's families to A's a rotation allows |
 | `match_lines` | `matching.py` | a family assignment, each view's lines (unmatched) | lines matched where they meet, direction between the centres |
+| `static_rotation` | `static.py` | each view's families (unmatched), candidate rotations | the rotation of a camera turned in place, from the lines it sees again unchanged, or None |
 | `relative_pose` | `relative.py` | the lines each view sees (matched by id, or not) | R, t, covariance, candidates, ambiguity verdict |
 | `matching_bar` | `relative.py` | the number of family assignments tried without labels | the margin an answer needs |
 | `chessboard_pose` | `chessboard.py` | an image of a chessboard (OpenCV's detector), a central camera | the board's R, t, covariance, its families' directions and vanishing points (the paper's Sec. 5.3; `catadioptric absolute-pose`) |
@@ -37,6 +38,7 @@ from .scale import ScaleOptions, refine_far_or_free
 from .select import ModelChoice, choose_model
 from .rotation import DirectionRotation, refine_rotation, rotation_angle_deg, rotation_from_directions
 from .signs import SignCandidate, sign_candidates
+from .static import StaticRotation, static_rotation
 from .translation import relative_translation_from_lines, translation_from_lines
 
 __all__ = [
@@ -48,5 +50,5 @@ __all__ = [
     "ViewLines", "FamilyEstimate", "fit_view_families", "relative_pose", "RelativePose", "Candidate",
     "matching_bar", "MATCHING_BARS",
     "family_matches", "FamilyMatch", "match_lines", "LineMatch", "choose_model", "ModelChoice",
-    "chessboard_pose", "ChessboardPose", "compare_board_poses",
+    "chessboard_pose", "ChessboardPose", "compare_board_poses", "static_rotation", "StaticRotation",
 ]
