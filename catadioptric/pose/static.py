@@ -120,7 +120,7 @@ def _twins(A: _Lines, B: _Lines, R, floor_rad) -> list:
     return out
 
 
-def _refit(A: _Lines, B: _Lines, pairs, R, floor_rad):
+def _refit(A: _Lines, B: _Lines, pairs, floor_rad):
     """The rotation from the twins' normals (weighted Procrustes) and its covariance."""
     i = np.array([p[0] for p in pairs])
     m = np.array([p[1] for p in pairs])
@@ -149,10 +149,10 @@ def _refined(A: _Lines, B: _Lines, R, unit):
         pairs = _twins(A, B, R, f * unit)
         if len(pairs) < 3:
             break
-        R, cov = _refit(A, B, pairs, R, f * unit)
+        R, cov = _refit(A, B, pairs, f * unit)
     pairs = _twins(A, B, R, FINAL_FLOOR_PX * unit)
     if len(pairs) >= 3:
-        R, cov = _refit(A, B, pairs, R, FINAL_FLOOR_PX * unit)
+        R, cov = _refit(A, B, pairs, FINAL_FLOOR_PX * unit)
     return R, cov, pairs
 
 
