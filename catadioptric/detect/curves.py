@@ -170,15 +170,14 @@ def merge_pieces(pieces: list[LinePiece], *, threshold: float = 1.0, merge_angle
         return pieces
     cos_max = np.cos(np.radians(merge_angle_deg))
     alive = [True] * len(pieces)
+    from scipy.spatial import cKDTree
+
     # every pair of live pieces whose planes are within merge_angle_deg is tested once (a pair's test
     # does not change while both live); the pairs that merge wait in a heap by (rms, i, j): the
     # smallest rms first, ties to the first pair in index order
-    from scipy.spatial import cKDTree
-
     heap: list = []
     found: dict = {}
     trees: dict = {}  # each piece's points, for the gaps
-
     boxes: dict = {}  # each piece's bounding box: a gap no shorter than the boxes' distance
 
     def box(k):
