@@ -136,8 +136,8 @@ class RelativePose:
     #: the margin the answer needed to be decisive (``decisive``, more when the first stage is weak)
     bar: float | None = None
     parallax: object = None
-    #: the :class:`~catadioptric.pose.static.StaticRotation` that decided the answer (a camera turned
-    #: in place: the lines its rotation alone shows again unchanged), or None
+    #: the :class:`~catadioptric.pose.static.StaticRotation` that decided the answer (the lines its
+    #: rotation alone shows again unchanged: a camera turned in place, or one that sees far lines), or None
     turned_in_place: object = None
 
     @property
@@ -720,11 +720,11 @@ def _turned_in_place(res, static) -> str:
     the rotation from the lines seen again unchanged, and ``t`` zero, unless the answer's meeting
     points show a translation that matched more lines than the rotation alone shows unchanged (a
     camera that moved, seeing far lines: its rotation and translation stand). Returns the note."""
+    res.turned_in_place = static
     if res.translation_observable and res.t is not None and res.lines_matched > len(static.twins):
         return (f"decisive by the lines seen again unchanged: {len(static.twins)} under its rotation, the "
                 f"{static.rivals} rival rotations at most {static.rival_twins}; the translation matched more "
                 f"lines ({res.lines_matched}) and stands")
-    res.turned_in_place = static
     res.R = static.R
     res.t = np.zeros(3)
     res.cov = np.full((6, 6), np.nan)
