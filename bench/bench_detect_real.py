@@ -32,7 +32,6 @@ _CHILD = r"""
 import hashlib, json, sys, time
 sys.path.insert(0, sys.argv[1])
 import numpy as np
-import catadioptric
 from catadioptric.formats import load_camera
 from catadioptric.detect import detect_lines
 from catadioptric.detect.cli import read_image
@@ -50,8 +49,7 @@ h.update(np.ascontiguousarray(det.normal).tobytes())
 h.update(np.asarray(det.family).tobytes())
 for f in det.families:
     h.update(np.asarray(f.direction).tobytes())
-print(json.dumps({"seconds": sec, "lines": len(det), "families": len(det.families), "hash": h.hexdigest()[:16],
-                  "package": catadioptric.__file__}))
+print(json.dumps({"seconds": sec, "lines": len(det), "families": len(det.families), "hash": h.hexdigest()[:16]}))
 """
 
 
@@ -70,6 +68,13 @@ def _detect(code: str, image: str, calib: str) -> dict:
     if p.returncode != 0:
         raise SystemExit(f"detection of {image} with the code of {code} failed:\n{p.stderr[-2000:]}")
     return json.loads(p.stdout.strip().splitlines()[-1])
+
+
+def _commit(code: str) -> str | None:
+    """The commit checked out in ``code`` (the report names code by its commit, not by a path of
+    this machine)."""
+    p = subprocess.run(["git", "-C", code, "rev-parse", "HEAD"], capture_output=True, text=True)
+    return p.stdout.strip() or None
 
 
 def main() -> int:
@@ -104,7 +109,7 @@ def main() -> int:
                  f"{row['same_lines']}" if "baseline" in row else ""), flush=True)
     total = {w: sum(r[w]["seconds"] for r in rows) for w in codes}
     out = {"benchmark": "detect-real", "meta": metadata(), "repeat": args.repeat, "images": rows,
-           "total_seconds": total, "baseline": args.baseline}
+           "total_seconds": total, "baseline_commit": None if args.baseline is None else _commit(args.baseline)}
     if args.baseline is not None:
         out["total_ratio"] = total["baseline"] / total["this"]
         print(f"total: {total['this']:.1f} s against {total['baseline']:.1f} s (x{out['total_ratio']:.2f})")
