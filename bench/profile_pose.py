@@ -87,6 +87,16 @@ def _hottest(stats: pstats.Stats, n: int = 15) -> list[dict]:
             for (path, line, fname), (_cc, nc, tt, _ct, _callers) in items]
 
 
+def _described(data: str) -> dict:
+    """A dataset given with ``--data``, by what it holds (its manifest's scene, seed and digest), not
+    by a path of this machine."""
+    import json
+
+    with open(os.path.join(data, "manifest.json")) as f:
+        scene = json.load(f).get("scene", {})
+    return {"given": "--data", "scene": scene.get("name"), "seed": scene.get("seed"), "digest": scene.get("digest")}
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", help="a dataset folder with views A and B (default: render urban_street, POV-Ray, VGA)")
@@ -114,7 +124,8 @@ def main() -> int:
         for k, v in det.seconds.items():
             detection[k] = round(detection.get(k, 0.0) + float(v), 3)
     out = {
-        "benchmark": "profile-pose", "meta": metadata(), "data": args.data or "urban_street, POV-Ray, 640x480",
+        "benchmark": "profile-pose", "meta": metadata(),
+        "data": _described(args.data) if args.data else "urban_street, POV-Ray, 640x480",
         "label_path": {"seconds": round(lab_s, 3), "noise_px": args.noise, "model": lab.pose.model,
                        "rotation_error_deg": lab.rotation_error_deg, "stages": _stages(lab_stats, lab_s),
                        "hottest": _hottest(lab_stats)},
