@@ -16,12 +16,15 @@ class ViewLines:
     hashable key, the same key in both views for the same family), ``line_id[i]`` an id shared
     with the other view for the same 3-D line, or None (unknown correspondence). ``cam``: the
     view's camera (:class:`~catadioptric.cameras.CatadioptricCamera`, or a central
-    :class:`~catadioptric.unified.UnifiedCamera`)."""
+    :class:`~catadioptric.unified.UnifiedCamera`). ``appearance``: the colours either side of each
+    line (:class:`~catadioptric.appearance.LineAppearance`, one row per line), or None (the lines'
+    matching then goes by geometry alone)."""
 
     cam: object
     uv: list
     family: list
     line_id: list = field(default=None)
+    appearance: object = field(default=None)
 
     def __post_init__(self):
         if not hasattr(self.cam, "backproject"):
@@ -35,6 +38,9 @@ class ViewLines:
         self.line_id = list(self.line_id)
         if len(self.line_id) != len(self.uv):
             raise CatadioptricError(f"line_id: expected one id per line ({len(self.uv)}), got {len(self.line_id)}")
+        if self.appearance is not None and len(self.appearance) != len(self.uv):
+            raise CatadioptricError(f"appearance: expected one row per line ({len(self.uv)}), got "
+                                    f"{len(self.appearance)}")
 
     def families(self) -> dict:
         """``{family: [line indices]}`` in the order of first appearance."""

@@ -174,7 +174,7 @@ def f():
 # (``catadioptric/__init__.py``, the facade, loaded before any submodule) is not a unit.
 LAYERS = [
     ["_checks", "_io", "_numeric", "_pool"],
-    ["_data", "_extras", "curves", "frames", "mirrors", "observations", "solvers", "spectable", "viewlines"],
+    ["_data", "_extras", "appearance", "curves", "frames", "mirrors", "observations", "solvers", "spectable", "viewlines"],
     ["projection", "render_presets"],  # projection: the solvers applied to a camera (duck-typed)
     ["lines", "vanishing"],
     ["cameras", "models"],  # the cameras' convenience methods call the layers below

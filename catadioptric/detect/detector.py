@@ -10,6 +10,7 @@ from .._checks import CatadioptricError, as_count, as_scalar
 from .centres import Centres, pair_edges, step_edges
 from .chains import join_chains, link_chains
 from .curves import line_covariance, merge_pieces, order_along, split_chain
+from .appearance import side_colours
 from .edges import subpixel_edges
 from .families import GroupingOptions, LinePlanes, group_families
 from .grow import grow_lines
@@ -164,9 +165,11 @@ def detect_lines(image, cam, *, mask=None, **options) -> DetectedLines:
         chi2_max=o["chi2_max"], angle_floor_deg=o["angle_floor_deg"], min_lines=o["min_family_lines"],
         min_search_pixels=o["family_search_pixels"], max_log_nfa=o["max_log_nfa"], concurrency_px=o["concurrency_px"]))
     lap("families")
+    appearance = side_colours(chan, [p.rays for p in lines], normals, width, noise_out)
+    lap("appearance")
     seconds["total"] = float(sum(seconds.values()))
     return DetectedLines(cam=cam, uv=uv, normal=normals, normal_cov=covs, rms=np.array(rms), polarity=np.array(pol),
                          width=np.array(width), family=family, families=families, image_size=(W, H),
                          noise={"image": noise_in, "denoised": noise_out}, denoise=mode,
                          chains=[c["uv"] for c in chains], seconds=seconds, annulus=annulus,
-                         options={k: v for k, v in o.items()})
+                         options={k: v for k, v in o.items()}, appearance=appearance)

@@ -27,7 +27,8 @@ class DetectedLines:
     ``noise``: the image's noise (grey levels) before and after denoising, ``denoise``: the mode
     applied; ``chains``: the linked chains (``uv`` each); ``seconds``: time per stage;
     ``options``: the options used; ``annulus``: for a camera model, the mirror's disc found in the
-    photograph ``(u0, v0, r_in, r_out)`` (docs/detect.md).
+    photograph ``(u0, v0, r_in, r_out)`` (docs/detect.md); ``appearance``: the colours either side of
+    each line (:class:`catadioptric.appearance.LineAppearance`), or None.
     """
 
     cam: object
@@ -46,6 +47,7 @@ class DetectedLines:
     seconds: dict = field(default_factory=dict)
     options: dict = field(default_factory=dict)
     annulus: tuple | None = None  # (u0, v0, r_in, r_out) of a photograph's mirror disc (camera models)
+    appearance: object = None  # LineAppearance of the lines, or None
 
     def __len__(self) -> int:
         return len(self.uv)
@@ -64,14 +66,16 @@ class DetectedLines:
 
         if not (isinstance(min_pixels, (int, np.integer)) and min_pixels >= 0):
             raise CatadioptricError(f"min_pixels: expected an integer >= 0, got {min_pixels!r}")
-        uv, fam = [], []
+        uv, fam, keep = [], [], []
         for i, u in enumerate(self.uv):
             f = int(self.family[i])
             if len(u) < min_pixels or (f < 0 and not unassigned):
                 continue
             uv.append(u)
             fam.append(f if f >= 0 else None)
-        return ViewLines(self.cam, uv, fam)
+            keep.append(i)
+        app = None if self.appearance is None else self.appearance.take(keep)
+        return ViewLines(self.cam, uv, fam, appearance=app)
 
     def to_dict(self) -> dict:
         """A JSON-ready summary: per line its pixels, plane and family; per family its direction."""
@@ -88,6 +92,7 @@ class DetectedLines:
                           "lines": f.lines, "pixels": f.pixels} for k, f in enumerate(self.families)],
             "lines": [{"index": i, "family": int(self.family[i]), "uv": self.uv[i], "normal": self.normal[i],
                        "normal_cov": self.normal_cov[i], "rms": float(self.rms[i]),
-                       "polarity": int(self.polarity[i]), "width": float(self.width[i])}
+                       "polarity": int(self.polarity[i]), "width": float(self.width[i]),
+                       **({} if self.appearance is None else {"sides": self.appearance.to_dict(i)})}
                       for i in range(len(self.uv))],
         }

@@ -15,6 +15,12 @@
    two lines that meet there in each view, and lines are matched one to one by their votes. The
    best few displacements of the RANSAC are each verified that way (a meeting ray of A counts where
    the lines matched to its two lines meet in B), and the best verified one is kept.
+3. **Appearance**, when both views carry it (:class:`catadioptric.appearance.LineAppearance`, from
+   the detector): under the assignment, each line's sides are named by its family's direction (A's,
+   and B's times the assignment's sign) and the side it is seen on, so that a side of a line of A
+   and the same side of its match in B are one side of one 3-D line; two lines whose brighter sides
+   differ (both contrasts above :data:`MIN_CONTRAST` grey levels) are not matched: not as the lines
+   of a candidate pair of meeting rays, nor in the one-to-one matching that is verified.
 
 The matched families and lines then go through :func:`catadioptric.pose.relative_pose` with the
 ends known (the assignment's signs).
@@ -27,10 +33,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._numeric import cross
+from ..appearance import contrasts_agree
 from .central import meeting, rad_per_px, residuals2, sides, translation_costs, truncated_residuals2
 from .rotation import refine_rotation, rotation_angle_deg, rotation_from_directions
 
-__all__ = ["FamilyMatch", "family_matches", "LineMatch", "LinesInOrder", "match_lines"]
+__all__ = ["FamilyMatch", "family_matches", "LineMatch", "LinesInOrder", "match_lines", "MIN_CONTRAST"]
+
+#: the least difference of luminance between a line's two sides (grey levels of an 8-bit scale, or
+#: three times the images' noise when larger) that tells its brighter side (module docstring, step 3)
+MIN_CONTRAST = 5.0
 
 
 @dataclass
@@ -176,6 +187,20 @@ def _crossings(view, est: dict, fam_of: dict):
     lines = np.array([[rows[a][1], rows[b][1]] for a, b in zip(i, j)], dtype=int).reshape(-1, 2)
     pairs = [(fam[a], fam[b]) for a, b in zip(i, j)]
     return x, lines, pairs
+
+
+def _contrasts(view, est: dict, signs: dict) -> np.ndarray | None:
+    """Per line of ``view``: the contrast of its sides (:meth:`~catadioptric.appearance.LineAppearance.contrast`)
+    about the normal ``sign s x u`` (``s`` its family's direction, ``u`` the side it is seen on);
+    NaN for a line of no family in ``signs`` (``{family key: sign}``). None without appearance."""
+    if view.appearance is None:
+        return None
+    out = np.full(len(view.uv), np.nan)
+    for key, sign in signs.items():
+        e = est[key]
+        m = sign * np.cross(e.direction, sides(view, e))
+        out[np.asarray(e.lines, dtype=np.int64)] = view.appearance.contrast(e.lines, m)
+    return out
 
 
 def _pencil_order(normals, e1, e2) -> np.ndarray:
@@ -426,6 +451,17 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
     ra = xa @ R.T
     rpp = max(rad_per_px(view_a.cam), rad_per_px(view_b.cam))
     thr = 3.0 * max(0.5, 0.5 * sigma_px) * np.sqrt(2.0) * rpp
+    # appearance: which lines of A may be which of B (module docstring, step 3)
+    con_a = _contrasts(view_a, ea, {k: 1.0 for k in ea})
+    con_b = _contrasts(view_b, eb, {b: float(sg) for b, (_, sg) in match.mapping.items()})
+    if con_a is not None and con_b is not None:
+        floor = max(MIN_CONTRAST, 3.0 * view_a.appearance.noise, 3.0 * view_b.appearance.noise)
+
+        def agree(i_a, i_b):
+            return contrasts_agree(con_a[i_a], con_b[i_b], floor)
+    else:
+        def agree(i_a, i_b):
+            return np.ones(np.broadcast(np.asarray(i_a), np.asarray(i_b)).shape, dtype=bool)
     # B's meeting ray of lines (l1, l2), -1 where none: a table over B's lines (one more: "unmatched")
     n_b = max(len(view_a.uv), len(view_b.uv)) + 1
     b_cross = np.full((n_b, n_b), -1, dtype=np.int32)
@@ -439,6 +475,9 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
         to_b = np.full(n_b, n_b - 1, dtype=np.int64)  # a line of A matched to nothing: B's last row, empty
         if pairs:
             pa_, pb_ = np.array(pairs, dtype=np.int64).T
+            keep = agree(pa_, pb_)
+            pairs = [p for p, k in zip(pairs, keep) if k]
+            pa_, pb_ = pa_[keep], pb_[keep]
             to_b[pa_] = pb_
         j_all = b_cross[to_b[la[:, 0]], to_b[la[:, 1]]]
         vi = np.flatnonzero(j_all >= 0)
@@ -466,6 +505,9 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
         cos_max = np.cos(np.radians(max_parallax_deg))
         for i, p in enumerate(pa):
             js = np.array(by_pair.get(p, []), dtype=int)
+            if len(js) == 0:
+                continue
+            js = js[agree(la[i, 0], lb[js, 0]) & agree(la[i, 1], lb[js, 1])]
             if len(js) == 0:
                 continue
             c = xb[js] @ ra[i]

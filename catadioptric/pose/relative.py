@@ -694,7 +694,10 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
     res.notes = [(f"families and lines matched without labels: {len(best.mapping)} families, {len(lines.pairs)} "
                   f"lines ({lines.n_inliers} of {lines.n_crossings} meeting points of A found in B); "
                   f"{len(scored)} family assignments tried{prior}; margin {margin:.1f} over the next answer "
-                  f"against a bar of {bar:g}"), *extra, *res.notes]
+                  f"against a bar of {bar:g}; "
+                  + ("lines matched only where their brighter sides agree (appearance)"
+                     if view_a.appearance is not None and view_b.appearance is not None else
+                     "no appearance (lines matched by the geometry alone)")), *extra, *res.notes]
     res.notes += [f"family {k} of A not used: {v}" for k, v in fail_a.items()]
     res.notes += [f"family {k} of B not used: {v}" for k, v in fail_b.items()]
     return res
