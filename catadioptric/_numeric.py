@@ -15,7 +15,11 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["rowdot", "unit", "norm", "max_abs", "cross"]
+__all__ = ["rowdot", "unit", "norm", "max_abs", "cross", "LUMA"]
+
+#: the luminance of RGB levels: Rec. 601 weights, as OpenCV's colour-to-grey conversion (one convention for the
+#: whole project: detection, chessboard corners, the sides of a line)
+LUMA = np.array([0.299, 0.587, 0.114])
 
 
 def rowdot(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -16,10 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["LineAppearance", "contrasts_agree", "LUMA"]
+from ._numeric import LUMA
 
-#: luminance weights of linear RGB channels (ITU-R BT.709)
-LUMA = np.array([0.2126, 0.7152, 0.0722])
+__all__ = ["LineAppearance", "contrasts_agree"]
 
 
 @dataclass
@@ -50,7 +49,7 @@ class LineAppearance:
         return np.where(flip[:, None, None], s[:, ::-1], s)
 
     def contrast(self, idx, m) -> np.ndarray:
-        """The luminance (:data:`LUMA` for three channels, else their mean) on the side ``m . d > 0``
+        """The luminance (:data:`catadioptric._numeric.LUMA` for three channels, else their mean) on the side ``m . d > 0``
         of lines ``idx`` minus the other side's, for normals ``m (K, 3)`` of their planes (any sign:
         the side follows ``m``'s)."""
         s = self.oriented(idx, m)

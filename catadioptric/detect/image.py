@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._checks import CatadioptricError
+from .._numeric import LUMA
 
 __all__ = ["to_channels", "luminance", "to_grey", "noise_level", "denoise", "DENOISE_MODES", "MAX_PIXELS",
            "check_image_size"]
@@ -70,10 +71,10 @@ def to_channels(image) -> np.ndarray:
 
 def luminance(channels: np.ndarray) -> np.ndarray:
     """Grey levels ``(H, W)`` of ``(H, W, C)`` levels: the channel itself, or the luminance of RGB
-    (Rec. 601 weights, OpenCV's)."""
+    (:data:`catadioptric._numeric.LUMA`: Rec. 601 weights, OpenCV's)."""
     if channels.shape[2] == 1:
         return channels[..., 0]
-    return 0.299 * channels[..., 0] + 0.587 * channels[..., 1] + 0.114 * channels[..., 2]
+    return LUMA[0] * channels[..., 0] + LUMA[1] * channels[..., 1] + LUMA[2] * channels[..., 2]
 
 
 def to_grey(image) -> np.ndarray:

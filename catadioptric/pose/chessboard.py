@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._checks import CatadioptricError
+from .._numeric import LUMA
 
 __all__ = ["ChessboardPose", "chessboard_pose", "find_chessboard_corners", "parse_pattern", "compare_board_poses",
            "board_symmetries", "board_points", "board_centre", "grey8", "project_points", "mirror_disc", "in_disc"]
@@ -208,7 +209,7 @@ def grey8(image) -> np.ndarray:
     other depths stretched to 0-255)."""
     img = np.asarray(image)
     if img.ndim == 3 and img.shape[2] in (3, 4):
-        img = img[..., :3].astype(np.float64) @ np.array([0.299, 0.587, 0.114])
+        img = img[..., :3].astype(np.float64) @ LUMA
     elif img.ndim != 2:
         raise CatadioptricError(f"image: expected a grey (H, W) or colour (H, W, 3|4) image, got shape {img.shape}")
     if img.dtype == np.uint8:
