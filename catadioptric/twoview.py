@@ -265,12 +265,26 @@ def image_pair_summary(result: ImagePairPose) -> dict:
             "lines_seen_again": len(p.turned_in_place.twins), "rival_rotations": p.turned_in_place.rivals,
             "rival_most": p.turned_in_place.rival_twins},
         "matched_families": fams,
-        "candidates": [{"mapping": c.signs, "R": c.R, "t": c.t, "cost": c.cost} for c in p.candidates],
+        "evidence": p.evidence,
+        "candidates": [_candidate(c, k, p.evidence) for k, c in enumerate(p.candidates)],
         "notes": p.notes,
         "views": [{"lines": len(d), "families": len(d.families), "assigned": int(np.sum(d.family >= 0)),
                    "denoise": d.denoise, "noise": d.noise} for d in (det_a, det_b)],
         "seconds": result.seconds,
     }
+
+
+def _candidate(c, k: int, evidence: dict | None) -> dict:
+    """One candidate of :func:`image_pair_summary`: its assignment, pose and cost; the lines its
+    matching paired and the meeting points of A it found in B; its cost by the geometry alone."""
+    from .pose import LineMatch
+
+    out = {"mapping": c.signs, "R": c.R, "t": c.t, "cost": c.cost}
+    if isinstance(c.fit, LineMatch):
+        out |= {"lines_matched": len(c.fit.pairs), "meeting_points_found": [c.fit.n_inliers, c.fit.n_crossings]}
+    if evidence and evidence.get("cost_geometry_alone"):
+        out["cost_geometry_alone"] = evidence["cost_geometry_alone"][k]
+    return out
 
 
 def image_pair_markdown(summary: dict, command: str) -> str:
@@ -286,6 +300,16 @@ def image_pair_markdown(summary: dict, command: str) -> str:
                "every candidate is in pose.json" if summary["ambiguous"] else "decisive")
     margin = summary["margin"]
     margin = f"margin {margin:.1f}" if known(margin) else "no rival answer"
+    ev = summary.get("evidence")
+    if ev and known(ev["margin"]):
+        margin += f" against a bar of {ev['bar']:g}"
+        if ev["appearance"] and ev["margin_geometry_alone"] is not None:
+            g = ev["margin_geometry_alone"]
+            margin += ("; without the lines' appearance, by the geometry alone: "
+                       + (f"{g:.1f}" if known(g) else "no rival answer")
+                       + (", another answer first" if known(g) and g < 0 else ""))
+        if ev["turned_in_place"]:
+            margin += "; decided by the lines seen again unchanged (a camera turned in place)"
     std = summary["rotation_std_deg"]
     lines += [f"- verdict: {verdict} ({margin})",
               f"- rotation: {rotation_angle_deg(R):.3f} deg turn"

@@ -94,6 +94,27 @@ def test_lines_whose_brighter_sides_differ_are_not_matched():
     assert flipped.n_inliers < 0.5 * same.n_inliers and flipped.cost > same.cost, (flipped.n_inliers, same.n_inliers)
 
 
+def test_the_answer_reports_what_the_geometry_alone_would_have_said():
+    """The board without labels: its lines alone cannot tell the board's motion from its half-turns
+    (the geometry alone ranks a symmetric answer first); lines with sides can, and the answer's
+    evidence says both: the geometry alone's costs are those of the same views without sides."""
+    from catadioptric.pose import relative_pose
+
+    views, Rs = _board_views()
+    truths = _symmetric_truths(*Rs)
+    plain = relative_pose(*views)
+    assert plain.evidence["appearance"] is False and plain.evidence["margin_geometry_alone"] is None
+    res = relative_pose(*_with_appearance(views, Rs))
+    ev = res.evidence
+    assert ev["appearance"] is True and ev["margin"] == res.margin
+    # the motion itself, not a symmetry, and decisive; by the geometry alone another answer was first
+    assert rotation_angle_deg(res.R @ truths[0].T) < 0.5 and not res.ambiguous
+    assert ev["margin_geometry_alone"] < 0 < ev["bar"] <= ev["margin"]
+    # the geometry alone is the run without sides, assignment by assignment
+    assert sorted(ev["cost_geometry_alone"]) == pytest.approx(sorted(c.cost for c in plain.candidates), rel=1e-12)
+    assert min(rotation_angle_deg(plain.R @ T.T) for T in truths[1:]) < 0.5
+
+
 def test_view_lines_refuse_an_appearance_of_another_length():
     views, _ = _board_views()
     v = views[0]

@@ -151,6 +151,27 @@ def test_the_mahalanobis_square_of_an_error():
     assert _mahalanobis(res, R_gt, t_gt) == {"rotation_mahalanobis2": None, "translation_mahalanobis2": None}
 
 
+def test_a_run_records_what_the_geometry_alone_ranked_first():
+    """The benchmark's per-run record of the evidence: the geometry alone's margin, and the error of
+    the candidate it ranks first (the cheapest by ``cost_geometry_alone``, not the answer)."""
+    from types import SimpleNamespace
+
+    from scipy.spatial.transform import Rotation
+
+    from catadioptric.validate.image_pairs import _geometry_alone
+
+    R_gt = Rotation.from_rotvec([0.0, 0.0, 0.3]).as_matrix()
+    half = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix() @ R_gt
+    cands = [SimpleNamespace(R=R_gt), SimpleNamespace(R=half), SimpleNamespace(R=R_gt)]
+    ev = {"margin": 40.0, "bar": 35.0, "appearance": True, "margin_geometry_alone": -6.0,
+          "cost_geometry_alone": [20.0, 14.0, float("nan")], "turned_in_place": False}
+    rec = _geometry_alone(SimpleNamespace(evidence=ev, candidates=cands), R_gt)
+    assert rec["margin_geometry_alone"] == -6.0 and rec["matching_bar"] == 35.0 and not rec["turned_in_place"]
+    assert rec["rotation_error_geometry_alone_deg"] == pytest.approx(180.0)
+    none = _geometry_alone(SimpleNamespace(evidence=None, candidates=cands), R_gt)
+    assert none["margin_geometry_alone"] is None and none["rotation_error_geometry_alone_deg"] is None
+
+
 def test_a_lost_family_is_told_where_it_was_lost():
     from catadioptric.validate.image_pairs import _lost
 
@@ -182,8 +203,17 @@ def test_cli_writes_pose_report_and_overlay(street, tmp_path, capsys):
     assert rotation_angle_deg(np.array(pose["R"]) @ R_gt.T) < 0.5
     assert pose["format"] == "catadioptric-image-pair-pose/1" and len(pose["matched_families"]) >= 3
     assert os.path.getsize(os.path.join(out, "overlay.png")) > 10000
+    # what decided: the margin and its bar, and the same assignments scored by the geometry alone
+    ev = pose["evidence"]
+    assert ev["appearance"] and ev["margin"] == pose["margin"] and ev["margin"] >= ev["bar"]
+    assert len(ev["cost_geometry_alone"]) == len(pose["candidates"])
+    first = pose["candidates"][0]
+    assert first["lines_matched"] >= 2
+    assert 0 < first["meeting_points_found"][0] <= first["meeting_points_found"][1]
     with open(os.path.join(out, "report.md")) as f:
-        assert "![overlay](overlay.png)" in f.read()
+        text = f.read()
+    assert "![overlay](overlay.png)" in text
+    assert f"against a bar of {ev['bar']:g}; without the lines' appearance, by the geometry alone" in text
 
 
 def test_cli_errors_are_one_line(street, tmp_path, capsys):

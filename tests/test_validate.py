@@ -287,6 +287,24 @@ def test_evaluating_some_pairs_names_the_ones_the_spec_does_not_have(tmp_path):
         results_folder("D", "image")
 
 
+def test_what_the_geometry_alone_would_have_answered():
+    """The report's appearance table: a run counts as answered by the geometry alone when its margin
+    without appearance reaches the same bar, or the lines seen again decided (their answer then);
+    wrong when the candidate the geometry alone ranks first is more than 10 degrees off."""
+    from catadioptric.validate.benchmark_report import _geometry_alone
+
+    def run(m, err_geo, err=0.1, static=False, bar=35.0):
+        return {"margin_geometry_alone": m, "matching_bar": bar, "turned_in_place": static,
+                "rotation_error_geometry_alone_deg": err_geo, "rotation_error_deg": err}
+
+    ok = [run(40.0, 0.2), run(34.9, 0.2), run(50.0, 179.0), run(-3.0, 90.0, static=True), run(float("inf"), 0.3)]
+    assert _geometry_alone(ok) == {"answered_geometry_alone": 4, "over_10deg_unflagged_geometry_alone": 1}
+    # results without the margin (no appearance, or computed before it was recorded): no figure
+    assert _geometry_alone(ok + [run(None, None)]) == {"answered_geometry_alone": None,
+                                                       "over_10deg_unflagged_geometry_alone": None}
+    assert _geometry_alone([])["answered_geometry_alone"] is None
+
+
 def test_the_image_path_is_set_beside_the_label_path_at_its_own_pixel_noise():
     """The ratio of the report's image section: against the label path at the smallest noise level
     at least the detected pixels' own (median distance / 0.6745), none when no level is."""

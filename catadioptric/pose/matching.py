@@ -437,12 +437,14 @@ class LinesInOrder:
 def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma_px: float = 1.0, seed: int = 0,
                 trials: int = 2000, neighbours: int = 4, max_parallax_deg: float = 45.0,
                 c2: float = 9.0, verify: int = 8, verify_apart_deg: float = 2.0,
-                max_ordered_lines: int = 24) -> LineMatch:
+                max_ordered_lines: int = 24, appearance: bool = True) -> LineMatch:
     """Match the lines of the two views for one family assignment (module docstring). ``verify``:
     the number of RANSAC displacements, best first and at least ``verify_apart_deg`` apart, that are
     each refined and verified by the one-to-one matching of the lines; the best verified one wins.
     ``max_ordered_lines``: families of at most this many lines in each view are also matched in
-    their order (:class:`LinesInOrder`), and those matchings are verified the same way."""
+    their order (:class:`LinesInOrder`), and those matchings are verified the same way.
+    ``appearance=False``: the lines' appearance is not used even where both views carry it (the
+    geometry alone, as reported beside the answer's margin)."""
     R = match.R
     xa, la, pa = _crossings(view_a, ea, {k: k for k in ea})
     xb, lb, pb = _crossings(view_b, eb, {b: a for b, (a, _) in match.mapping.items()})
@@ -452,8 +454,8 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
     rpp = max(rad_per_px(view_a.cam), rad_per_px(view_b.cam))
     thr = 3.0 * max(0.5, 0.5 * sigma_px) * np.sqrt(2.0) * rpp
     # appearance: which lines of A may be which of B (module docstring, step 3)
-    con_a = _contrasts(view_a, ea, {k: 1.0 for k in ea})
-    con_b = _contrasts(view_b, eb, {b: float(sg) for b, (_, sg) in match.mapping.items()})
+    con_a = _contrasts(view_a, ea, {k: 1.0 for k in ea}) if appearance else None
+    con_b = _contrasts(view_b, eb, {b: float(sg) for b, (_, sg) in match.mapping.items()}) if appearance else None
     if con_a is not None and con_b is not None:
         floor = max(MIN_CONTRAST, 3.0 * view_a.appearance.noise, 3.0 * view_b.appearance.noise)
 

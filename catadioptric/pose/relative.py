@@ -139,6 +139,9 @@ class RelativePose:
     #: the :class:`~catadioptric.pose.static.StaticRotation` that decided the answer (the lines its
     #: rotation alone shows again unchanged: a camera turned in place, or one that sees far lines), or None
     turned_in_place: object = None
+    #: without labels, what decided (``margin``, ``bar``, ``appearance``, ``margin_geometry_alone``,
+    #: ``cost_geometry_alone`` per candidate, ``turned_in_place``); None with labels
+    evidence: dict | None = None
 
     @property
     def translation_observable(self) -> bool:
@@ -637,10 +640,14 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
         raise CatadioptricError(f"views: no assignment of the {len(eb)} families of B to the {len(ea)} of A fits a "
                                 "rotation" + ("" if max_rotation_deg is None else
                                               f" that turns by at most max_rotation_deg = {max_rotation_deg} degrees"))
-    scored = []
+    seen = view_a.appearance is not None and view_b.appearance is not None
+    scored, geometry = [], {}
     for m in matches:
         lm = match_lines(view_a, view_b, ea, eb, m, sigma_px=sigma, seed=seed)
         scored.append((m.cost + lm.cost, m, lm))
+        if seen:  # the same assignment scored by the geometry alone (the evidence reported with the answer)
+            geometry[id(m)] = m.cost + match_lines(view_a, view_b, ea, eb, m, sigma_px=sigma, seed=seed,
+                                                   appearance=False).cost
     scored.sort(key=lambda x: x[0] if np.isfinite(x[0]) else np.inf)
     best_score, best, lines = scored[0]
     others = [s for s, m, _ in scored[1:] if rotation_angle_deg(m.R @ best.R.T) > _SAME_DEG]
@@ -681,6 +688,7 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
     res.candidates[0] = Candidate(res.candidates[0].signs, res.R, res.t, best_score, best.cost, res.cov, lines)
     res.margin = float(margin)
     res.ambiguous = bool(margin < bar) or why_unscored is not None or conflict is not None
+    res.evidence = _evidence(scored, geometry, margin, bar, static is not None)
     extra = [] if conflict is None else [conflict]
     if static is not None:
         res.ambiguous = False
@@ -701,6 +709,23 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
     res.notes += [f"family {k} of A not used: {v}" for k, v in fail_a.items()]
     res.notes += [f"family {k} of B not used: {v}" for k, v in fail_b.items()]
     return res
+
+
+def _evidence(scored, geometry: dict, margin: float, bar: float, turned_in_place: bool) -> dict:
+    """What decided an answer without labels (:class:`RelativePose`'s ``evidence``): the margin of
+    the matching and its bar; with appearance, the margin the geometry alone gives the same answer
+    over the next different one (negative when it ranks another first), and each candidate's cost
+    by the geometry alone (in the candidates' order)."""
+    out = {"margin": float(margin), "bar": float(bar), "appearance": bool(geometry),
+           "margin_geometry_alone": None, "cost_geometry_alone": None, "turned_in_place": turned_in_place}
+    if geometry:
+        costs = [geometry[id(m)] for _, m, _ in scored]
+        best_R = scored[0][1].R
+        others = [c for c, (_, m, _) in zip(costs[1:], scored[1:])
+                  if rotation_angle_deg(m.R @ best_R.T) > _SAME_DEG and np.isfinite(c)]
+        out["margin_geometry_alone"] = float(min(others) - costs[0]) if others else float("inf")
+        out["cost_geometry_alone"] = [float(c) for c in costs]
+    return out
 
 
 def _labelled(view_a, view_b, ea, eb, match, lines):

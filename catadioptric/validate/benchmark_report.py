@@ -424,13 +424,27 @@ def aggregate_images(spec: dict, results: list, image_results: list) -> dict:
                     "rotation_deg_all": _q([x["rotation_error_deg"] for x in ok]),
                     "translation_m": _q([x["translation_error_m"] for x in clear]),
                     "translation_direction_deg": _q([x["translation_direction_error_deg"] for x in clear]),
-                    "over_10deg_unflagged": sum(x["rotation_error_deg"] > 10 for x in clear)}
+                    "over_10deg_unflagged": sum(x["rotation_error_deg"] > 10 for x in clear),
+                    **_geometry_alone(ok)}
             e["labels_rotation_deg"] = {
                 str(n): _q([d["rotation_error_deg"] for r in labs for d in r["draws"]
                             if abs(d["noise_px"] - n) < 1e-12 and "error" not in d and not d["ambiguous"]])
                 for n in spec["noise_px"]}
             out[f"{name}/{renderer}"] = e
     return out
+
+
+def _geometry_alone(ok: list) -> dict:
+    """The same runs had the lines' appearance not been used (their ``margin_geometry_alone``
+    against the same bar, or the lines seen again deciding as they did): answered, and of those more
+    than 10 degrees off; None when the runs carry no such margin (no appearance, or older results)."""
+    geo = [x for x in ok if x.get("margin_geometry_alone") is not None and x.get("matching_bar") is not None]
+    if not ok or len(geo) < len(ok):
+        return {"answered_geometry_alone": None, "over_10deg_unflagged_geometry_alone": None}
+    answered = [x for x in geo if x["turned_in_place"] or x["margin_geometry_alone"] >= x["matching_bar"]]
+    return {"answered_geometry_alone": len(answered), "over_10deg_unflagged_geometry_alone": sum(
+        (x["rotation_error_deg"] if x["turned_in_place"] else x["rotation_error_geometry_alone_deg"]) > 10
+        for x in answered)}
 
 
 def _comparable_level(e: dict, prior: str, noises) -> tuple:
@@ -489,6 +503,17 @@ def images_markdown(spec: dict, agg_im: dict, overlays: dict, *, labels: bool = 
                     "matched families all right",
                     "same families (directions too)", "all right (directions too)", "rotation (deg)",
                     "translation (m)", "translation direction (deg)"], rows), ""]
+    rows = [[k, p, q["runs"] - q["failed"], q["runs"] - q["failed"] - q["ambiguous"], q["over_10deg_unflagged"],
+             q["answered_geometry_alone"], q["over_10deg_unflagged_geometry_alone"]]
+            for k, e in agg_im.items() for p in priors
+            for q in [e["priors"][p]] if q.get("answered_geometry_alone") is not None]
+    if rows:
+        L += ["### What the lines' appearance decided", "",
+              "The same runs, each family assignment also scored by the geometry alone (its lines matched again "
+              "with their sides ignored; `pose.json`'s `evidence`), held to the same bar: how many pairs each "
+              "would answer, and how many of those more than 10 degrees off.", "",
+              md_table(["configuration / renderer", "prior (deg)", "pairs run", "answered", "> 10 deg off",
+                        "answered, geometry alone", "> 10 deg off, geometry alone"], rows), ""]
     if labels:
         rows = []
         for k, e in agg_im.items():

@@ -64,6 +64,22 @@ def _families_check(family_map, dets, scores, R, R_gt, label_families, label_fam
     return out
 
 
+def _geometry_alone(res, R_gt) -> dict:
+    """Without the lines' appearance: the margin of the answer by the geometry alone and how far off
+    the candidate the geometry alone ranks first is (its assignment's rotation; None without appearance)."""
+    from ..pose import rotation_angle_deg
+
+    ev = res.evidence or {}
+    costs = ev.get("cost_geometry_alone")
+    out = {"matching_bar": ev.get("bar"), "turned_in_place": bool(ev.get("turned_in_place")),
+           "margin_geometry_alone": None, "rotation_error_geometry_alone_deg": None}
+    if costs:
+        first = res.candidates[int(np.argmin(np.where(np.isfinite(costs), costs, np.inf)))]
+        out |= {"margin_geometry_alone": ev["margin_geometry_alone"],
+                "rotation_error_geometry_alone_deg": rotation_angle_deg(first.R @ R_gt.T)}
+    return out
+
+
 def _mahalanobis(res, R_gt, t_gt) -> dict:
     """The errors against the answer's own covariance: ``rotation_mahalanobis2``, ``w^T C_w^-1 w`` for
     the error rotation ``exp(w) = R R_gt^T`` (left, as the covariance), and
@@ -171,6 +187,7 @@ def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, joint
                     "rotation_std_deg": res.rotation_std_deg, "translation_error_m": None,
                     "translation_direction_error_deg": None, "seconds": time.perf_counter() - t1,
                     "candidates": len(res.candidates), "notes": res.notes})
+        rec.update(_geometry_alone(res, R_gt))
         if res.t is not None:
             if res.metric:
                 rec["translation_error_m"] = float(np.linalg.norm(res.t - t_gt))
