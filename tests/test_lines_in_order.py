@@ -87,3 +87,27 @@ def test_a_board_carried_around_the_camera_is_not_answered_by_a_quarter_turn(boa
     # every candidate cheaper than the first quarter-turn is right up to a symmetry
     first_wrong = next(k for k, e in enumerate(errs) if e > 5.0)
     assert all(e < 0.5 for e in errs[:first_wrong])
+
+
+def test_an_ambiguous_answers_rivals_are_estimates_too():
+    """When the answer is ambiguous (here forced: a bar of 1000), the cheapest rivals within the bar,
+    each a different answer, are refined as the best is: each carries a covariance, and those that are
+    the board's motion up to a symmetry lie within 4 of their own deviations of it (the assignment's
+    rotation from the directions alone was left before)."""
+    from catadioptric.pose.relative import _REFINED_RIVALS
+
+    views, Rs = _board_views(noise_px=1.0)
+    truths = _symmetric_truths(*Rs)
+    res = relative_pose(*views, decisive_matching=1000.0)
+    assert res.ambiguous
+    assert any(f"{_REFINED_RIVALS} rival answers within the bar refined" in n for n in res.notes), res.notes
+    refined = [c for c in res.candidates[1:] if c.cov is not None]
+    assert len(refined) == _REFINED_RIVALS
+    right = 0
+    for c in [res.candidates[0], *refined]:
+        err = min(rotation_angle_deg(np.asarray(c.R) @ T.T) for T in truths)
+        std = np.degrees(np.sqrt(np.trace(c.cov[:3, :3])))
+        if err < 5.0:
+            right += 1
+            assert err < 4.0 * std, (err, std)
+    assert right >= 2  # the motion and one of its symmetries at least

@@ -51,6 +51,12 @@ _FITS = 4.0  # a refinement fits the pixels when its robust cost is at most this
 #: with no motion); on a moving rendered central pair, none
 _TWINS_MIN = 5
 _TWINS_OVER_MATCHED = 1
+#: an ambiguous answer without labels: this many of its rivals (the cheapest, each a different answer
+#: within the bar of the best) are refined as the best is (the labelled path with their own assignment
+#: and lines), so that every answer the user must choose between is as accurate as the first. On the
+#: real board pairs of validate/real the right motion, listed third, goes from 1.29 to 0.92 and from
+#: 1.07 to 0.89 deg (the assignment's rotation from directions alone, before)
+_REFINED_RIVALS = 3
 _SAME_DEG = 5.0  # two answers whose rotations are closer than this are one answer (the ambiguities are
 # discrete: half-turns, permutations of the families)
 #: The meeting rays (pairs of matched lines of different families whose planes meet on the seen half of
@@ -693,6 +699,13 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
     if static is not None:
         res.ambiguous = False
         extra.append(_turned_in_place(res, static))
+    if res.ambiguous:
+        refined = _refine_rivals(res, scored, bar, (view_a, view_b, ea, eb),
+                                 (seed, f_scale, pixel_sigma, decisive, max_pixels, min_families, max_rotation_deg,
+                                  model_error_px))
+        if refined:
+            extra.append(f"ambiguous: {refined} rival answers within the bar refined as the best was (their lines "
+                         f"and assignment through the labelled path): every candidate listed is an estimate")
     prior = "" if max_rotation_deg is None else f" (within the prior max_rotation_deg = {max_rotation_deg})"
     if no_lines:
         extra.append(f"{no_lines} of the {len(scored)} assignments matched no lines (no two meeting points of A near "
@@ -709,6 +722,33 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
     res.notes += [f"family {k} of A not used: {v}" for k, v in fail_a.items()]
     res.notes += [f"family {k} of B not used: {v}" for k, v in fail_b.items()]
     return res
+
+
+def _refine_rivals(res, scored, bar: float, views: tuple, options: tuple) -> int:
+    """An ambiguous answer's rivals within ``bar`` of the best (at most ``_REFINED_RIVALS``, each a
+    different answer) refined through the labelled path with their own assignment and matched lines;
+    their candidates in ``res`` take the refined ``R``, ``t`` and covariance (their cost stays the
+    matching's, so the ranking does not change). Returns how many were refined."""
+    view_a, view_b, ea, eb = views
+    best_score, done = scored[0][0], [res.R]
+    for k in range(1, len(scored)):
+        if len(done) > _REFINED_RIVALS:
+            break
+        score, m, lm = scored[k]
+        if not np.isfinite(score) or score - best_score >= bar or len(lm.pairs) < 2:
+            continue
+        if any(rotation_angle_deg(m.R @ R.T) <= _SAME_DEG for R in done):
+            continue
+        va, vb, ends = _labelled(view_a, view_b, ea, eb, m, lm)
+        fitted = (ea, {a: replace(eb[b], key=a) for b, (a, _) in m.mapping.items()})
+        try:
+            r = _relative_pose(va, vb, ends, *options, fitted=fitted)
+        except CatadioptricError:
+            continue
+        c = res.candidates[k]
+        res.candidates[k] = Candidate(c.signs, r.R, r.t, c.cost, c.direction_cost, r.cov, lm)
+        done.append(r.R)
+    return len(done) - 1
 
 
 def _evidence(scored, geometry: dict, margin: float, bar: float, turned_in_place: bool) -> dict:
