@@ -163,10 +163,12 @@ def test_a_run_records_what_the_geometry_alone_ranked_first():
     R_gt = Rotation.from_rotvec([0.0, 0.0, 0.3]).as_matrix()
     half = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix() @ R_gt
     cands = [SimpleNamespace(R=R_gt), SimpleNamespace(R=half), SimpleNamespace(R=R_gt)]
-    ev = {"margin": 40.0, "bar": 35.0, "appearance": True, "margin_geometry_alone": -6.0,
-          "cost_geometry_alone": [20.0, 14.0, float("nan")], "turned_in_place": False}
+    ev = {"margin": 40.0, "bar": 35.0, "appearance": True, "margin_unordered": 38.0, "margin_geometry_alone": -6.0,
+          "margin_geometry_alone_unordered": -2.0, "cost_geometry_alone": [20.0, 14.0, float("nan")],
+          "turned_in_place": False}
     rec = _geometry_alone(SimpleNamespace(evidence=ev, candidates=cands), R_gt)
     assert rec["margin_geometry_alone"] == -6.0 and rec["matching_bar"] == 35.0 and not rec["turned_in_place"]
+    assert rec["margin_unordered"] == 38.0 and rec["margin_geometry_alone_unordered"] == -2.0
     assert rec["rotation_error_geometry_alone_deg"] == pytest.approx(180.0)
     none = _geometry_alone(SimpleNamespace(evidence=None, candidates=cands), R_gt)
     assert none["margin_geometry_alone"] is None and none["rotation_error_geometry_alone_deg"] is None

@@ -293,11 +293,12 @@ def test_what_the_geometry_alone_would_have_answered():
     wrong when the candidate the geometry alone ranks first is more than 10 degrees off."""
     from catadioptric.validate.benchmark_report import _geometry_alone
 
-    def run(m, err_geo, err=0.1, static=False, bar=35.0):
-        return {"margin_geometry_alone": m, "matching_bar": bar, "turned_in_place": static,
-                "rotation_error_geometry_alone_deg": err_geo, "rotation_error_deg": err}
+    def run(m, err_geo, err=0.1, static=False, bar=35.0, unordered=float("inf")):
+        return {"margin_geometry_alone": m, "margin_geometry_alone_unordered": unordered, "matching_bar": bar,
+                "turned_in_place": static, "rotation_error_geometry_alone_deg": err_geo, "rotation_error_deg": err}
 
-    ok = [run(40.0, 0.2), run(34.9, 0.2), run(50.0, 179.0), run(-3.0, 90.0, static=True), run(float("inf"), 0.3)]
+    ok = [run(40.0, 0.2), run(34.9, 0.2), run(50.0, 179.0), run(-3.0, 90.0, static=True), run(float("inf"), 0.3),
+          run(80.0, 179.0, unordered=20.0)]  # the last decided by the lines matched in their order alone
     assert _geometry_alone(ok) == {"answered_geometry_alone": 4, "over_10deg_unflagged_geometry_alone": 1}
     # results without the margin (no appearance, or computed before it was recorded): no figure
     assert _geometry_alone(ok + [run(None, None)]) == {"answered_geometry_alone": None,

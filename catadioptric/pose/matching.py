@@ -160,6 +160,9 @@ class LineMatch:
     cost: float
     n_inliers: int
     n_crossings: int
+    #: the best verified cost of the RANSAC's displacements alone (the lines matched in their order,
+    #: :class:`LinesInOrder`, left out); ``cost`` when those are all there is
+    cost_unordered: float | None = None
 
 
 def _crossings(view, est: dict, fam_of: dict):
@@ -449,7 +452,7 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
     xa, la, pa = _crossings(view_a, ea, {k: k for k in ea})
     xb, lb, pb = _crossings(view_b, eb, {b: a for b, (a, _) in match.mapping.items()})
     if len(xa) < 2 or len(xb) < 2:
-        return LineMatch([], None, float(c2 * len(xa)), 0, len(xa))
+        return LineMatch([], None, float(c2 * len(xa)), 0, len(xa), float(c2 * len(xa)))
     ra = xa @ R.T
     rpp = max(rad_per_px(view_a.cam), rad_per_px(view_b.cam))
     thr = 3.0 * max(0.5, 0.5 * sigma_px) * np.sqrt(2.0) * rpp
@@ -591,8 +594,10 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
         return [verified(u) for u in tops]
 
     found = by_neighbours()
+    unordered = min((m.cost for m in found), default=float(c2 * len(xa)))
     ordered = LinesInOrder(ea, eb, match, (xa, la), (xb, lb), max_lines=max_ordered_lines)
     found += [scored(pairs, t) for pairs, t in ordered.hypotheses(thr, c2, top=verify)]
     if not found:
-        return LineMatch([], None, float(c2 * len(xa)), 0, len(xa))
-    return min(found, key=lambda m: (m.cost, -m.n_inliers))
+        return LineMatch([], None, float(c2 * len(xa)), 0, len(xa), float(c2 * len(xa)))
+    best = min(found, key=lambda m: (m.cost, -m.n_inliers))
+    return LineMatch(best.pairs, best.t, best.cost, best.n_inliers, best.n_crossings, unordered)

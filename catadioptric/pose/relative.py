@@ -652,8 +652,7 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
         lm = match_lines(view_a, view_b, ea, eb, m, sigma_px=sigma, seed=seed)
         scored.append((m.cost + lm.cost, m, lm))
         if seen:  # the same assignment scored by the geometry alone (the evidence reported with the answer)
-            geometry[id(m)] = m.cost + match_lines(view_a, view_b, ea, eb, m, sigma_px=sigma, seed=seed,
-                                                   appearance=False).cost
+            geometry[id(m)] = match_lines(view_a, view_b, ea, eb, m, sigma_px=sigma, seed=seed, appearance=False)
     scored.sort(key=lambda x: x[0] if np.isfinite(x[0]) else np.inf)
     best_score, best, lines = scored[0]
     others = [s for s, m, _ in scored[1:] if rotation_angle_deg(m.R @ best.R.T) > _SAME_DEG]
@@ -673,6 +672,13 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
         margin = max(0.0, min(finite) - best_score) if finite and np.isfinite(best_score) else 0.0
     no_lines = sum(1 for _, _, lm in scored if lm.t is None and lm.n_crossings > 0)
     bar = max(decisive, matching_bar(len(scored)) if decisive_matching is None else decisive_matching)
+    # the lines matched in their order (LinesInOrder) choose their pairs by the cost that scores them:
+    # they may rank an answer first, never make it decisive alone (docs/relative_pose.md, step 3)
+    margin_unordered = _margin_unordered(scored)
+    unordered_conflict = None
+    if margin >= bar and margin_unordered < bar:
+        unordered_conflict = (f"ambiguous: the lines matched in their order decide it (margin {margin:.1f}); the "
+                              f"RANSAC's matchings alone give it {margin_unordered:.1f} against the bar of {bar:g}")
     static, conflict = None, None
     if is_central(view_a.cam) and why_unscored is None:
         static = static_rotation(view_a, view_b, ea, eb, [m.R for _, m, _ in scored], same_deg=_SAME_DEG)
@@ -693,9 +699,12 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
                                 None if lm.t is None else lm.t, score, m.cost, None, lm) for score, m, lm in scored]
     res.candidates[0] = Candidate(res.candidates[0].signs, res.R, res.t, best_score, best.cost, res.cov, lines)
     res.margin = float(margin)
-    res.ambiguous = bool(margin < bar) or why_unscored is not None or conflict is not None
+    if static is not None:  # the lines seen again decide, not the matching
+        unordered_conflict = None
+    res.ambiguous = bool(margin < bar) or why_unscored is not None or conflict is not None or \
+        unordered_conflict is not None
     res.evidence = _evidence(scored, geometry, margin, bar, static is not None)
-    extra = [] if conflict is None else [conflict]
+    extra = [x for x in (conflict, unordered_conflict) if x is not None]
     if static is not None:
         res.ambiguous = False
         extra.append(_turned_in_place(res, static))
@@ -722,6 +731,18 @@ def _unmatched(view_a, view_b, seed, f_scale, pixel_sigma, decisive, max_pixels,
     res.notes += [f"family {k} of A not used: {v}" for k, v in fail_a.items()]
     res.notes += [f"family {k} of B not used: {v}" for k, v in fail_b.items()]
     return res
+
+
+def _margin_unordered(scored) -> float:
+    """The margin of the first of ``scored`` (``[(score, FamilyMatch, LineMatch)]``, best first) over
+    the next different answer when every assignment is scored by the RANSAC's matchings alone
+    (:attr:`~catadioptric.pose.matching.LineMatch.cost_unordered`); negative when they rank another
+    answer first, inf when there is none."""
+    costs = [m.cost + (lm.cost if lm.cost_unordered is None else lm.cost_unordered) for _, m, lm in scored]
+    best_R = scored[0][1].R
+    others = [c for c, (_, m, _) in zip(costs[1:], scored[1:])
+              if rotation_angle_deg(m.R @ best_R.T) > _SAME_DEG and np.isfinite(c)]
+    return float(min(others) - costs[0]) if others and np.isfinite(costs[0]) else float("inf")
 
 
 def _refine_rivals(res, scored, bar: float, views: tuple, options: tuple) -> int:
@@ -753,17 +774,21 @@ def _refine_rivals(res, scored, bar: float, views: tuple, options: tuple) -> int
 
 def _evidence(scored, geometry: dict, margin: float, bar: float, turned_in_place: bool) -> dict:
     """What decided an answer without labels (:class:`RelativePose`'s ``evidence``): the margin of
-    the matching and its bar; with appearance, the margin the geometry alone gives the same answer
-    over the next different one (negative when it ranks another first), and each candidate's cost
-    by the geometry alone (in the candidates' order)."""
+    the matching and its bar, and the margin by the RANSAC's matchings alone (:func:`_margin_unordered`);
+    with appearance, the margins the geometry alone gives the same answer over the next different
+    one (negative when it ranks another first), and each candidate's cost by the geometry alone (in
+    the candidates' order)."""
     out = {"margin": float(margin), "bar": float(bar), "appearance": bool(geometry),
-           "margin_geometry_alone": None, "cost_geometry_alone": None, "turned_in_place": turned_in_place}
+           "margin_unordered": _margin_unordered(scored), "margin_geometry_alone": None,
+           "margin_geometry_alone_unordered": None, "cost_geometry_alone": None, "turned_in_place": turned_in_place}
     if geometry:
-        costs = [geometry[id(m)] for _, m, _ in scored]
+        alone = [(m.cost + geometry[id(m)].cost, m, geometry[id(m)]) for _, m, _ in scored]
+        costs = [c for c, _, _ in alone]
         best_R = scored[0][1].R
         others = [c for c, (_, m, _) in zip(costs[1:], scored[1:])
                   if rotation_angle_deg(m.R @ best_R.T) > _SAME_DEG and np.isfinite(c)]
         out["margin_geometry_alone"] = float(min(others) - costs[0]) if others else float("inf")
+        out["margin_geometry_alone_unordered"] = _margin_unordered(alone)
         out["cost_geometry_alone"] = [float(c) for c in costs]
     return out
 

@@ -441,7 +441,8 @@ def _geometry_alone(ok: list) -> dict:
     geo = [x for x in ok if x.get("margin_geometry_alone") is not None and x.get("matching_bar") is not None]
     if not ok or len(geo) < len(ok):
         return {"answered_geometry_alone": None, "over_10deg_unflagged_geometry_alone": None}
-    answered = [x for x in geo if x["turned_in_place"] or x["margin_geometry_alone"] >= x["matching_bar"]]
+    answered = [x for x in geo if x["turned_in_place"] or min(
+        x["margin_geometry_alone"], x.get("margin_geometry_alone_unordered", np.inf)) >= x["matching_bar"]]
     return {"answered_geometry_alone": len(answered), "over_10deg_unflagged_geometry_alone": sum(
         (x["rotation_error_deg"] if x["turned_in_place"] else x["rotation_error_geometry_alone_deg"]) > 10
         for x in answered)}

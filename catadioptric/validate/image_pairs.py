@@ -72,10 +72,12 @@ def _geometry_alone(res, R_gt) -> dict:
     ev = res.evidence or {}
     costs = ev.get("cost_geometry_alone")
     out = {"matching_bar": ev.get("bar"), "turned_in_place": bool(ev.get("turned_in_place")),
-           "margin_geometry_alone": None, "rotation_error_geometry_alone_deg": None}
+           "margin_unordered": ev.get("margin_unordered"), "margin_geometry_alone": None,
+           "margin_geometry_alone_unordered": None, "rotation_error_geometry_alone_deg": None}
     if costs:
         first = res.candidates[int(np.argmin(np.where(np.isfinite(costs), costs, np.inf)))]
         out |= {"margin_geometry_alone": ev["margin_geometry_alone"],
+                "margin_geometry_alone_unordered": ev["margin_geometry_alone_unordered"],
                 "rotation_error_geometry_alone_deg": rotation_angle_deg(first.R @ R_gt.T)}
     return out
 
