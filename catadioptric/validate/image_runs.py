@@ -18,7 +18,8 @@ covariance chi-square with 3 degrees of freedom: median 2.37, 90th percentile 6.
 **Matching bar** (docs/relative_pose.md, "The bar on the matching"): every run by the number of
 family assignments it tried; per group, how many runs, how many best candidates more than
 ``--off`` degrees off and the largest margin among those (what a bar must exceed; a single
-assignment has no rival, its margin is infinite), and how many right answers each bar of
+assignment has no rival, its margin is infinite; the margin is the smaller of the matching's and
+its margin by the RANSAC's matchings alone, where the run recorded it), and how many right answers each bar of
 :data:`catadioptric.pose.MATCHING_BARS` keeps; then per bar's range of assignments, the largest
 margin of a wrong answer against the bar (:func:`catadioptric.pose.matching_bar`).
 """
@@ -63,7 +64,10 @@ def matching_margins(results: dict, off_deg: float = 5.0, groups=(4, 12, 24)) ->
     bars = [b for _, b in MATCHING_BARS]
 
     def margin(r):
-        return float("inf") if r["margin"] is None else float(r["margin"])
+        # what the verdict holds to the bar: the smaller of the matching's margin and its margin by the
+        # RANSAC's matchings alone (runs that recorded it; docs/relative_pose.md, "Without labels", 3)
+        m = float("inf") if r["margin"] is None else float(r["margin"])
+        return m if r.get("margin_unordered") is None else min(m, float(r["margin_unordered"]))
 
     rows = []
     edges = [0, *sorted(groups), None]
