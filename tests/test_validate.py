@@ -298,9 +298,10 @@ def test_what_the_geometry_alone_would_have_answered():
                 "turned_in_place": static, "rotation_error_geometry_alone_deg": err_geo, "rotation_error_deg": err}
 
     ok = [run(40.0, 0.2), run(34.9, 0.2), run(50.0, 179.0), run(-3.0, 90.0, static=True), run(float("inf"), 0.3),
-          run(80.0, 179.0, unordered=20.0)]  # the last decided by the lines matched in their order alone
-    assert _geometry_alone(ok) == {"answered_geometry_alone": 4, "over_10deg_unflagged_geometry_alone": 1}
-    # results without the margin (no appearance, or computed before it was recorded): no figure
+          run(80.0, 179.0, unordered=20.0),  # decided by the lines matched in their order alone
+          run(None, 0.1, unordered=None)]  # one assignment: no rival, its margins infinite (null in JSON)
+    assert _geometry_alone(ok) == {"answered_geometry_alone": 5, "over_10deg_unflagged_geometry_alone": 1}
+    # results without the geometry alone's record (no appearance, or computed before it was recorded): no figure
     assert _geometry_alone(ok + [run(None, None)]) == {"answered_geometry_alone": None,
                                                        "over_10deg_unflagged_geometry_alone": None}
     assert _geometry_alone([])["answered_geometry_alone"] is None

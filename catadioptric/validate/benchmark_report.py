@@ -438,11 +438,17 @@ def _geometry_alone(ok: list) -> dict:
     """The same runs had the lines' appearance not been used (their ``margin_geometry_alone``
     against the same bar, or the lines seen again deciding as they did): answered, and of those more
     than 10 degrees off; None when the runs carry no such margin (no appearance, or older results)."""
-    geo = [x for x in ok if x.get("margin_geometry_alone") is not None and x.get("matching_bar") is not None]
+    # recorded: the error of the candidate the geometry alone ranks first; a margin of null is infinite
+    # (JSON has no infinity: a single assignment has no rival)
+    geo = [x for x in ok if x.get("rotation_error_geometry_alone_deg") is not None and x.get("matching_bar") is not None]
     if not ok or len(geo) < len(ok):
         return {"answered_geometry_alone": None, "over_10deg_unflagged_geometry_alone": None}
+
+    def margin(x, key):
+        return np.inf if x.get(key) is None else x[key]
+
     answered = [x for x in geo if x["turned_in_place"] or min(
-        x["margin_geometry_alone"], x.get("margin_geometry_alone_unordered", np.inf)) >= x["matching_bar"]]
+        margin(x, "margin_geometry_alone"), margin(x, "margin_geometry_alone_unordered")) >= x["matching_bar"]]
     return {"answered_geometry_alone": len(answered), "over_10deg_unflagged_geometry_alone": sum(
         (x["rotation_error_deg"] if x["turned_in_place"] else x["rotation_error_geometry_alone_deg"]) > 10
         for x in answered)}
