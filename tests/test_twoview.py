@@ -80,14 +80,14 @@ def test_matching_without_labels_has_its_own_margin(street):
 def test_the_default_bar_grows_with_the_rival_assignments(with_prior):
     """Without ``decisive_matching`` the bar is that of the number of family assignments tried
     (:func:`catadioptric.pose.matching_bar`): on this pair, with the prior, at most 24 of them and a
-    bar of 35; the notes give the margin and the bar."""
+    bar of 25; the notes give the margin and the bar."""
     import re
 
     res = with_prior
     note = next(n for n in res.pose.notes if "matched without labels" in n)
     tried = int(re.search(r"(\d+) family assignments tried", note).group(1))
     bar = float(re.search(r"against a bar of ([\d.]+)", note).group(1))
-    assert tried <= 24 and bar == 35.0, note
+    assert tried <= 24 and bar == 25.0, note
     assert res.pose.ambiguous == (res.pose.margin < bar)
 
 
@@ -95,7 +95,7 @@ def test_matching_bar():
     from catadioptric import CatadioptricError
     from catadioptric.pose import MATCHING_BARS, matching_bar
 
-    assert [matching_bar(n) for n in (1, 24, 25, 48, 1000)] == [35.0, 35.0, 60.0, 60.0, 60.0]
+    assert [matching_bar(n) for n in (1, 24, 25, 48, 1000)] == [25.0, 25.0, 40.0, 40.0, 40.0]
     assert MATCHING_BARS[-1][0] is None
     for bad in (0, -3, 2.5, True, "8"):
         with pytest.raises(CatadioptricError, match=r"n_assignments: expected a positive integer, got"):
