@@ -425,7 +425,7 @@ def register(sub) -> None:
                    help="margin (chi-square units) the best answer needs over the next (default 25)")
     p.add_argument("--decisive-matching", type=positive_float, default=None,
                    help="margin the best matching of the two images' families and lines needs over the next "
-                        "different one (default: 35 when at most 24 family assignments are tried, 60 beyond; "
+                        "different one (default: 25 when at most 24 family assignments are tried, 40 beyond; "
                         "chance agreements of the matching, docs/relative_pose.md)")
     p.add_argument("--no-joint-families", action="store_true",
                    help="do not look for the families that only both images together show (two lines in each; "

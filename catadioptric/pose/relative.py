@@ -346,11 +346,12 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
     not fit exact pixels is not trusted beyond its own precision. ``decisive_matching``: when
     nothing is matched across the views (no ``line_id``: each image's own detections), the margin
     the best assignment of families and lines needs over the next different answer (at least
-    ``decisive``; None: :func:`matching_bar` of the number of family assignments tried, 35 for at
-    most 24 and 60 beyond): the matching's cost counts meeting points that agree by chance, and
+    ``decisive``; None: :func:`matching_bar` of the number of family assignments tried, 25 for at
+    most 24 and 40 beyond): the matching's cost counts meeting points that agree by chance, and
     the more rival assignments, the larger the chance margin: on the relative-pose benchmark and on
-    100 held-out pairs, wrong answers won by up to 32.4 units among at most 24 assignments and by up
-    to 49.6 among more (docs/relative_pose.md, "The bar on the matching"). Raises :class:`CatadioptricError` naming the
+    100 held-out pairs, wrong answers won by up to 10.2 units among at most 24 assignments and by up
+    to 29.7 among more, counting the smaller of the matching's margin and its margin by the RANSAC's
+    matchings alone, which both must reach the bar (docs/relative_pose.md, "The bar on the matching"). Raises :class:`CatadioptricError` naming the
     cause when fewer than ``min_families`` families are seen in both views, or when no candidate
     is within ``max_rotation_deg``.
     """
