@@ -53,9 +53,9 @@ _TWINS_MIN = 5
 _TWINS_OVER_MATCHED = 1
 #: an ambiguous answer without labels: this many of its rivals (the cheapest, each a different answer
 #: within the bar of the best) are refined as the best is (the labelled path with their own assignment
-#: and lines), so that every answer the user must choose between is as accurate as the first. On the
-#: real board pairs of validate/real the right motion, listed third, goes from 1.29 to 0.92 and from
-#: 1.07 to 0.89 deg (the assignment's rotation from directions alone, before)
+#: and lines), so that every answer the user must choose between is an estimate with a covariance. On
+#: the real board pair 001-002 of validate/real the right motion listed second goes from 1.60 deg (the
+#: assignment's rotation from the directions alone) to 1.30
 _REFINED_RIVALS = 3
 _SAME_DEG = 5.0  # two answers whose rotations are closer than this are one answer (the ambiguities are
 # discrete: half-turns, permutations of the families)
@@ -149,8 +149,9 @@ class RelativePose:
     #: the :class:`~catadioptric.pose.static.StaticRotation` that decided the answer (the lines its
     #: rotation alone shows again unchanged: a camera turned in place, or one that sees far lines), or None
     turned_in_place: object = None
-    #: without labels, what decided (``margin``, ``bar``, ``appearance``, ``margin_geometry_alone``,
-    #: ``cost_geometry_alone`` per candidate, ``turned_in_place``); None with labels
+    #: without labels, what decided (``margin``, ``bar``, ``margin_unordered``, ``appearance``,
+    #: ``margin_geometry_alone``, ``margin_geometry_alone_unordered``, ``cost_geometry_alone`` per
+    #: candidate, ``turned_in_place``; docs/relative_pose.md, pose.json); None with labels
     evidence: dict | None = None
 
     @property
