@@ -139,3 +139,11 @@ def test_the_lines_in_order_never_decide_alone():
     # without ordered matchings (cost_unordered None or equal) the margin is the matching's own
     plain = [cand(np.eye(3), 600.0, None), cand(half, 650.0, None)]
     assert _margin_unordered(plain) == pytest.approx(50.0)
+    # the verdict: the board's lines (no sides) are matched in their order well past the bar, but the
+    # RANSAC's matchings alone rank another answer first: ambiguous, and the note says why
+    views, _ = _board_views()
+    res = relative_pose(*views)
+    ev = res.evidence
+    assert ev["margin"] >= ev["bar"] > ev["margin_unordered"], ev
+    assert res.ambiguous and any(n.startswith("ambiguous: the lines matched in their order decide it")
+                                 for n in res.notes), res.notes
