@@ -745,10 +745,17 @@ def _margin_unordered(scored) -> float:
     (:attr:`~catadioptric.pose.matching.LineMatch.cost_unordered`); negative when they rank another
     answer first, inf when there is none."""
     costs = [m.cost + (lm.cost if lm.cost_unordered is None else lm.cost_unordered) for _, m, lm in scored]
+    return _margin_over_next(costs, scored) if np.isfinite(costs[0]) else float("inf")
+
+
+def _margin_over_next(costs: list, scored) -> float:
+    """``costs`` (one per assignment of ``scored``, in its order): the first's margin over the
+    cheapest finite one whose rotation is a different answer (more than ``_SAME_DEG`` from the
+    first's); inf when there is none."""
     best_R = scored[0][1].R
     others = [c for c, (_, m, _) in zip(costs[1:], scored[1:])
               if rotation_angle_deg(m.R @ best_R.T) > _SAME_DEG and np.isfinite(c)]
-    return float(min(others) - costs[0]) if others and np.isfinite(costs[0]) else float("inf")
+    return float(min(others) - costs[0]) if others else float("inf")
 
 
 def _refine_rivals(res, scored, bar: float, views: tuple, options: tuple) -> int:
@@ -790,10 +797,7 @@ def _evidence(scored, geometry: dict, margin: float, bar: float, turned_in_place
     if geometry:
         alone = [(m.cost + geometry[id(m)].cost, m, geometry[id(m)]) for _, m, _ in scored]
         costs = [c for c, _, _ in alone]
-        best_R = scored[0][1].R
-        others = [c for c, (_, m, _) in zip(costs[1:], scored[1:])
-                  if rotation_angle_deg(m.R @ best_R.T) > _SAME_DEG and np.isfinite(c)]
-        out["margin_geometry_alone"] = float(min(others) - costs[0]) if others else float("inf")
+        out["margin_geometry_alone"] = _margin_over_next(costs, scored)
         out["margin_geometry_alone_unordered"] = _margin_unordered(alone)
         out["cost_geometry_alone"] = [float(c) for c in costs]
     return out
