@@ -59,16 +59,18 @@ def ridge_pixels(labels: np.ndarray, label: int) -> np.ndarray:
     return np.stack([cols, rows], axis=1).astype(float)
 
 
-def label_near(labels: np.ndarray, uv: np.ndarray, label: int) -> np.ndarray:
-    """True where ``label`` covers a pixel centre within one pixel (3 x 3 neighbourhood) of ``uv``."""
+def label_near(labels: np.ndarray, uv: np.ndarray, label) -> np.ndarray:
+    """True where ``label`` covers a pixel centre within one pixel (3 x 3 neighbourhood) of ``uv``.
+    ``label``: one label, or one per point ``(M,)``."""
     H, W = labels.shape
     c = np.rint(uv).astype(int)
+    label = np.broadcast_to(np.asarray(label), (len(uv),))
     hit = np.zeros(len(uv), dtype=bool)
     for dy in (-1, 0, 1):
         for dx in (-1, 0, 1):
             x, y = c[:, 0] + dx, c[:, 1] + dy
             ok = (x >= 0) & (x < W) & (y >= 0) & (y < H)
-            hit[ok] |= labels[y[ok], x[ok]] == label
+            hit[ok] |= labels[y[ok], x[ok]] == label[ok]
     return hit
 
 
@@ -83,22 +85,40 @@ def _thin(uv: np.ndarray, step: float = 1.0) -> np.ndarray:
     return uv[k]
 
 
-def curve_pixels(curves: list, labels: np.ndarray, segment: int, label: int) -> np.ndarray:
-    """Sub-pixel points of segment ``segment``'s exact image curves where the label image shows it,
-    one per pixel of arc length."""
+def _shown(curves: list, labels: np.ndarray, label_of: dict) -> dict:
+    """Per segment of ``label_of`` (segment -> its label), each of its curves' vertices where the
+    label image shows it (visible, on the image, the label within one pixel): ``{segment: [(uv, ok)]}``.
+    Every curve's vertices are tested in one pass."""
+    mine = [c for c in curves if c["segment"] in label_of]
+    out: dict = {}
+    if not mine:
+        return out
+    uv = np.concatenate([np.nan_to_num(c["uv"]) for c in mine])
+    ok = np.concatenate([c["visible"] & c["in_image"] for c in mine])
+    lab = np.concatenate([np.full(len(c["uv"]), label_of[c["segment"]]) for c in mine])
+    ok[ok] = label_near(labels, uv[ok], lab[ok])
+    start = np.cumsum([0] + [len(c["uv"]) for c in mine])
+    for c, a, b in zip(mine, start[:-1], start[1:]):
+        out.setdefault(c["segment"], []).append((c["uv"], ok[a:b]))
+    return out
+
+
+def _runs_thinned(shown: list) -> np.ndarray:
+    """The visible runs (at least two vertices) of a segment's curves, each thinned to one vertex per
+    pixel of arc length, concatenated."""
     out = []
-    for c in curves:
-        if c["segment"] != segment:
-            continue
-        ok = c["visible"] & c["in_image"]
-        if ok.any():
-            ok &= label_near(labels, np.nan_to_num(c["uv"]), label)
-        # visible runs
+    for uv, ok in shown:
         edges = np.flatnonzero(np.diff(np.r_[0, ok.astype(np.int8), 0]))
         for a, b in zip(edges[::2], edges[1::2]):
             if b - a >= 2:
-                out.append(_thin(c["uv"][a:b]))
+                out.append(_thin(uv[a:b]))
     return np.concatenate(out) if out else np.zeros((0, 2))
+
+
+def curve_pixels(curves: list, labels: np.ndarray, segment: int, label: int) -> np.ndarray:
+    """Sub-pixel points of segment ``segment``'s exact image curves where the label image shows it,
+    one per pixel of arc length."""
+    return _runs_thinned(_shown(curves, labels, {segment: label}).get(segment, []))
 
 
 def line_pixels(view, *, pixels: str = "curve", noise_px: float = 0.0, rng=None, min_pixels: int = 30,
@@ -118,12 +138,15 @@ def line_pixels(view, *, pixels: str = "curve", noise_px: float = 0.0, rng=None,
     curves = view["curves"] if pixels == "curve" else None
     uvs, fams, segs, labs = [], [], [], []
     counts, short = {}, 0
+    if pixels == "curve":
+        shown = _shown(curves, labels, {int(ln["index"]): int(ln.get("label", 0) or 0) for ln in view["lines"]
+                                        if int(ln.get("label", 0) or 0) > 0})
     for ln in view["lines"]:
         lab = int(ln.get("label", 0) or 0)
         if lab <= 0:
             continue
         if pixels == "curve":
-            uv = curve_pixels(curves, labels, int(ln["index"]), lab)
+            uv = _runs_thinned(shown.get(int(ln["index"]), []))
         else:
             uv = ridge_pixels(labels, lab)
         if len(uv) == 0:
