@@ -41,7 +41,7 @@ def direction_from_planes(normals, normal_covs):
 # --------------------------------------------------------------------------- central cameras
 def fit_interpretation_plane(cam, uv, *, f_scale: float = 1.0, ransac: bool = True, seed=0,
                              pixel_sigma=None, inlier_threshold=None, max_trials: int = 200,
-                             directions_only: bool = False) -> InterpretationPlane:
+                             directions_only: bool = False, rays=None) -> InterpretationPlane:
     """What one image of a central camera says about a 3-D line: the plane through the
     viewpoint that holds it (``normal``, unit; the line's direction is normal to it).
     ``cam``: a central :class:`CatadioptricCamera`, a :class:`~catadioptric.unified.UnifiedCamera` or a
@@ -57,6 +57,8 @@ def fit_interpretation_plane(cam, uv, *, f_scale: float = 1.0, ransac: bool = Tr
     RANSAC over pairs of pixels (``n = d_1 x d_2``). ``normal_cov`` from the same
     linearisation (sigma from the residuals unless ``pixel_sigma`` is given). Two or
     more parallel lines give their direction as the common normal of their planes.
+    ``rays``: the pixels' rays if already computed (:func:`~catadioptric.linefit.planes.pixel_rays_with_jacobian`
+    of ``cam`` and ``uv``; e.g. a slice of those of many lines' pixels, computed at once).
     """
     from ..models.base import CentralCamera
     from ..unified import UnifiedCamera
@@ -71,7 +73,10 @@ def fit_interpretation_plane(cam, uv, *, f_scale: float = 1.0, ransac: bool = Tr
     f_scale, pixel_sigma, inlier_threshold = check_options("linear", f_scale, pixel_sigma, inlier_threshold)
     rng = as_rng(seed)
     # a pixel at the edge of the mirror's image has no ray derivative (a neighbour misses the mirror)
-    rays = pixel_rays_with_jacobian(cam, uv)
+    if rays is None:
+        rays = pixel_rays_with_jacobian(cam, uv)
+    elif len(rays.uv) != len(uv):
+        raise CatadioptricError(f"rays: expected the rays of the {len(uv)} pixels uv, got {len(rays.uv)}")
     valid = rays.ok
     if int(valid.sum()) < 3:
         raise CatadioptricError(f"uv: expected at least 3 pixels that see the world, got {int(valid.sum())}")
