@@ -202,19 +202,27 @@ def group_families(planes: LinePlanes, options: GroupingOptions = GroupingOption
     band = np.sqrt(chi2_max * (np.einsum("hi,lij,hj->hl", S, C, S) + floor2))  # (H, L)
     free = search.copy()
     dirs, members = [], []
+    agree = None  # the hypotheses' lines, their scores and which are left: valid while ``free`` is unchanged
     for _ in range(10 * max_families):  # rejected hypotheses count too
         if len(dirs) >= max_families:
             break
-        agree = (X2 <= chi2_max) & free[None]
-        count = agree.sum(axis=1)
-        cand = np.flatnonzero(count >= min_lines)
+        if agree is None:
+            agree = (X2 <= chi2_max) & free[None]
+            left = agree.sum(axis=1) >= min_lines
+            n_free = int(free.sum())
+            # rank by significance (most negative log NFA first); a row's score is its own lines' alone
+            scores = np.zeros(len(S))
+            scores[left] = log_nfa_rows(np.minimum(band[left], 1.0), agree[left], n_free)
+            rejected = set()  # the line sets already refined and dropped (the same set: the same outcome)
+        cand = np.flatnonzero(left)
         if len(cand) == 0:
             break
-        n_free = int(free.sum())
-        # rank by significance (most negative log NFA first)
-        scores = log_nfa_rows(np.minimum(band[cand], 1.0), agree[cand], n_free)
-        h = int(cand[np.argmin(scores)])
+        h = int(cand[np.argmin(scores[cand])])
         lines = np.flatnonzero(agree[h])
+        key = lines.tobytes()
+        if key in rejected:  # what follows depends on the lines alone, not on the direction through two of them
+            X2[h], left[h] = np.inf, False
+            continue
         s = S[h]
         for _ in range(3):
             s, cov = refine_direction(N, C, lines, s)
@@ -231,11 +239,13 @@ def group_families(planes: LinePlanes, options: GroupingOptions = GroupingOption
         if (len(lines) < min_lines or log_nfa(np.minimum(b, 1.0), n_free) > o.max_log_nfa
                 or (cam is not None and concurrent(cam, s, np.asarray(ends)[lines], o.concurrency_px))):
             # the hypothesis does not hold up once refined: drop it and go on
-            X2[h] = np.inf
+            X2[h], left[h] = np.inf, False
+            rejected.add(key)
             continue
         dirs.append(s)
         members.append(lines)
         free[lines] = False
+        agree = None
     dirs = _merge_close(N, C, dirs, members, np.radians(o.merge_deg))
     return _assign(N, C, w, dirs, floor2, chi2_max, min_lines, np.radians(o.max_band_deg))
 
