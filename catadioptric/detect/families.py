@@ -113,14 +113,14 @@ def _chi2(N, C, S, floor2):
     return num / den
 
 
-def refine_direction(N, C, lines, s0):
-    """The common direction of the lines ``lines`` (plane normals ``N``, covariances ``C``) and its covariance,
-    signed like ``s0``; ``s0`` and the identity for fewer than two lines."""
+def refine_direction(N, C, lines, s0, covariance: bool = True):
+    """The common direction of the lines ``lines`` (plane normals ``N``, covariances ``C``) and its covariance
+    (None without ``covariance``), signed like ``s0``; ``s0`` and the identity for fewer than two lines."""
     from ..linefit import direction_from_planes
 
     if len(lines) < 2:
         return s0, np.eye(3)
-    s, cov = direction_from_planes(N[lines], C[lines])
+    s, cov = direction_from_planes(N[lines], C[lines], covariance=covariance)
     return (s if s @ s0 >= 0 else -s), cov
 
 
@@ -225,7 +225,7 @@ def group_families(planes: LinePlanes, options: GroupingOptions = GroupingOption
             continue
         s = S[h]
         for _ in range(3):
-            s, cov = refine_direction(N, C, lines, s)
+            s, _ = refine_direction(N, C, lines, s, covariance=False)
             x2 = _chi2(N, C, s[None], floor2)[0]
             new = np.flatnonzero((x2 <= chi2_max) & free)
             if np.array_equal(new, lines) or len(new) < min_lines:
@@ -234,7 +234,7 @@ def group_families(planes: LinePlanes, options: GroupingOptions = GroupingOption
         sub = _split(N, C, lines, s, floor2, min_lines, o.split_gain)
         if sub is not None:  # a blend of two families: keep the better half, the rest stays free
             lines = sub
-            s, cov = refine_direction(N, C, lines, s)
+            s, _ = refine_direction(N, C, lines, s, covariance=False)
         b = np.sqrt(chi2_max * (np.einsum("i,lij,j->l", s, C[lines], s) + floor2))
         if (len(lines) < min_lines or log_nfa(np.minimum(b, 1.0), n_free) > o.max_log_nfa
                 or (cam is not None and concurrent(cam, s, np.asarray(ends)[lines], o.concurrency_px))):
@@ -278,7 +278,7 @@ def _split(N, C, lines, s, floor2, min_lines, gain, tight=4.0):
         if a.tobytes() in seen:  # the same split again (through two other lines of one set): the same totals
             continue
         seen.add(a.tobytes())
-        sa, _ = refine_direction(N, C, lines[a], H[h])
+        sa, _ = refine_direction(N, C, lines[a], H[h], covariance=False)
         rest = lines[~a]
         # the rest's own best direction (through two of its lines)
         ii, jj = np.triu_indices(len(rest), 1)
@@ -288,7 +288,7 @@ def _split(N, C, lines, s, floor2, min_lines, gain, tight=4.0):
             continue
         Hb = Hb[nb > 1e-9] / nb[nb > 1e-9, None]
         sb = Hb[int(np.argmin(np.sum(np.minimum(_chi2(N[rest], C[rest], Hb, floor2), 9.0), axis=1)))]
-        sb, _ = refine_direction(N, C, rest, sb)
+        sb, _ = refine_direction(N, C, rest, sb, covariance=False)
         total = float(np.sum(_chi2(N[lines[a]], C[lines[a]], sa[None], floor2))
                       + np.sum(_chi2(N[rest], C[rest], sb[None], floor2)))
         if single - total > gain and (best is None or total < best[0]):
@@ -309,7 +309,8 @@ def _merge_close(N, C, dirs, members, max_angle):
         if ang[i, j] >= max_angle:
             break
         lines = np.union1d(members[i], members[j])
-        s, _ = refine_direction(N, C, lines, dirs[i] if len(members[i]) >= len(members[j]) else dirs[j])
+        s0 = dirs[i] if len(members[i]) >= len(members[j]) else dirs[j]
+        s, _ = refine_direction(N, C, lines, s0, covariance=False)
         for k in sorted((i, j), reverse=True):
             del dirs[k], members[k]
         dirs.append(s)

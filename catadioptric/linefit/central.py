@@ -11,10 +11,11 @@ from .planes import pixel_rays_with_jacobian, plane_covariance, plane_distances,
 from .results import InterpretationPlane
 
 
-def direction_from_planes(normals, normal_covs):
+def direction_from_planes(normals, normal_covs, *, covariance: bool = True):
     """The direction common to planes with unit ``normals (L, 3)`` (L >= 2) and covariances
     ``normal_covs (L, 3, 3)``: minimises ``sum (n_i . s)^2 / (s^T C_i s)`` (reweighted
-    eigenvector). Returns ``(s, cov (3, 3))``, ``s`` unit (sign arbitrary)."""
+    eigenvector). Returns ``(s, cov (3, 3))``, ``s`` unit (sign arbitrary); ``cov`` None without
+    ``covariance``."""
     n = as_float_array(normals, "normals", 3)
     C = as_float_array(normal_covs, "normal_covs", (3, 3))
     if n.ndim != 2 or len(n) < 2 or C.shape != (len(n), 3, 3):
@@ -31,6 +32,8 @@ def direction_from_planes(normals, normal_covs):
         s = s_new
         if done:
             break
+    if not covariance:
+        return s, None
     e1, e2 = tangent_basis(s)
     E = np.stack([e1, e2], axis=1)
     A = n @ E  # (L, 2): d(n_i . s) / d(tangent coordinates)

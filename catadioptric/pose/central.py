@@ -169,15 +169,14 @@ def meeting_rays(view_a, view_b, ea, eb, keys) -> MeetingRays | None:
                        [(ids[a], ids[b]) for a, b in zip(i, j)])
 
 
-def _depths(p, q, T):
-    """Depths ``(lam, mu)`` of ``lam p + T = mu q`` in least squares, for rays ``p, q (K, 3)`` (unit)
-    and translations ``T (H, 3)``: ``(H, K)`` each, and the rays' angle cosine ``(K,)``."""
+def _both_ahead(p, q, T):
+    """Whether each pair of rays ``p, q (K, 3)`` (unit) meets in front of both centres for the
+    translations ``T (H, 3)``: the depths ``(lam, mu)`` of ``lam p + T = mu q`` in least squares both
+    positive, ``(H, K)``; and the rays' angle cosine ``(K,)``. The depths' common denominator
+    ``1 - (p.q)^2`` is positive, so their signs are their numerators' (no division)."""
     pq = np.sum(p * q, axis=-1)
-    det = np.maximum(1.0 - pq**2, 1e-300)
     pt, qt = T @ p.T, T @ q.T
-    lam = (-pt + pq * qt) / det
-    mu = (qt - pq * pt) / det
-    return lam, mu, pq
+    return ((pq * qt - pt) > 0) & ((qt - pq * pt) > 0), pq
 
 
 def _cheirality_violation(p, q, T):
@@ -218,8 +217,8 @@ def truncated_residuals2(A, p, q, T, thr, c2, W=None, ang=None, min_parallax=Non
     if min_parallax is None:
         ahead = _cheirality_violation(p, q, T) <= (thr if W is None else 3.0 * ang)
     else:
-        lam, mu, pq = _depths(p, q, T)
-        ahead = ((lam > 0) & (mu > 0)) | (pq > np.cos(min_parallax))[None, :]
+        both, pq = _both_ahead(p, q, T)
+        ahead = both | (pq > np.cos(min_parallax))[None, :]
     inl = (r2 <= c2) & ahead
     return np.where(inl, r2, c2), inl
 
