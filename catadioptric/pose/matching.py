@@ -310,8 +310,7 @@ class LinesInOrder:
             P, Q = self.ra[kA[ok]], self.xb[kB[ok]]
             Av = np.cross(P, Q)
             Av /= np.maximum(np.linalg.norm(Av, axis=1), 1e-300)[:, None]
-            _, inl = translation_costs(Av, P, Q, t[None], thr, c2, min_parallax=3.0 * thr)
-            out[ok] = np.where(inl[0], residuals2(Av, t[None], thr)[0], c2)
+            out[ok] = truncated_residuals2(Av, P, Q, t[None], thr, c2, min_parallax=3.0 * thr)[0][0]
         return out
 
     def _fit(self, kA, kB, thr, c2, rounds: int = 3):
@@ -351,6 +350,7 @@ class LinesInOrder:
     def _realign(self, pairs, t, thr, c2):
         """Each family's lines aligned again against the others' matched lines (class docstring, 2)."""
         for _ in range(self.rounds):
+            before = ({f: list(p) for f, p in pairs.items()}, t)
             for f in self.keys:
                 gain = np.zeros((len(self.orders[f][0]), len(self.orders[f][1])))
                 for g in self.keys:
@@ -369,6 +369,8 @@ class LinesInOrder:
             if t_new is None:
                 break
             t = t_new
+            if pairs == before[0] and np.array_equal(t, before[1]):  # a fixed point: another round repeats this one
+                break
         return pairs, t
 
     def _seeds(self, thr, c2):
