@@ -4,7 +4,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from catadioptric.pose.central import _cheirality_violation, _depths, _meeting_cov
+from catadioptric.pose.central import _both_ahead, _cheirality_violation, _meeting_cov
 
 
 def _unit(v):
@@ -20,8 +20,23 @@ def test_the_violation_is_zero_exactly_when_the_rays_meet_in_front_of_both(seed)
     p, q = _unit(X - T), _unit(X)
     for sp, sq in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
         v = _cheirality_violation(sp * p[None], sq * q[None], T[None])[0, 0]
-        lam, mu, _ = _depths(sp * p[None], sq * q[None], T[None])
-        assert (v < 1e-9) == bool(lam[0, 0] > 0 and mu[0, 0] > 0), (sp, sq, v)
+        both, _ = _both_ahead(sp * p[None], sq * q[None], T[None])
+        assert (v < 1e-9) == bool(both[0, 0]), (sp, sq, v)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_both_ahead_is_the_signs_of_the_least_squares_depths(seed):
+    """The depths' signs without their division, against ``lam p + T = mu q`` solved in least squares."""
+    rng = np.random.default_rng(seed)
+    p, q, T = _unit(rng.normal(size=(50, 3))), _unit(rng.normal(size=(50, 3))), rng.normal(size=(7, 3))
+    both, pq = _both_ahead(p, q, T)
+    assert np.allclose(pq, np.sum(p * q, axis=1), rtol=0, atol=1e-15)
+    for h in range(len(T)):
+        for k in range(len(p)):
+            (lam, mu), *_ = np.linalg.lstsq(np.stack([p[k], -q[k]], axis=1), -T[h], rcond=None)
+            if min(abs(lam), abs(mu)) > 1e-9:
+                assert both[h, k] == (lam > 0 and mu > 0), (h, k, lam, mu)
 
 
 def test_the_twisted_pair_violates_by_the_rays_angles_from_the_baseline():
