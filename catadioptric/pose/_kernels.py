@@ -1,17 +1,20 @@
-"""The compiled inner loop of the two-view refinement (numba): the normal equations with every
-pixel's depth eliminated (:func:`catadioptric.pose.bundle._normal_equations` documents them).
+"""The compiled inner loops of the pose (numba), float64, no fast-math, compiled once per machine
+and cached, like :mod:`catadioptric.solvers._kernels`:
 
-One pass over the pixels; each pixel touches 10 unknowns (its columns ``cols``) and its own
-depth, so its 10 x 10 block of the reduced system is formed and added where it belongs, in
-pixel order (the order in which ``numpy.bincount`` would add the same terms). Float64, no
-fast-math. Compiled once per machine and cached, like :mod:`catadioptric.solvers._kernels`.
+* :func:`reduced_normal_equations`, of the two-view refinement: the normal equations with every
+  pixel's depth eliminated (:func:`catadioptric.pose.bundle._normal_equations` documents them).
+  One pass over the pixels; each pixel touches 10 unknowns (its columns ``cols``) and its own
+  depth, so its 10 x 10 block of the reduced system is formed and added where it belongs, in
+  pixel order (the order in which ``numpy.bincount`` would add the same terms).
+* :func:`alignment_table`, of the lines matched in their order
+  (:class:`catadioptric.pose.matching.LinesInOrder`): the dynamic programme of a monotone alignment.
 """
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
 
-__all__ = ["reduced_normal_equations"]
+__all__ = ["reduced_normal_equations", "alignment_table"]
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -50,3 +53,21 @@ def reduced_normal_equations(A, b, e, w, lam, cols, ny):
             for j in range(10):
                 S[ci, cols[n, j]] += (wa0 * A[n, 0, j] + wa1 * A[n, 1, j]) - Hym[n, i] * Hym[n, j] / hd
     return S, g, Hym, gm, Hmm_d
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def alignment_table(gain):
+    """``D (n + 1, m + 1)``: ``D[i, j]`` the largest total of positive ``gain`` over pairs increasing in
+    both indices among the first ``i`` rows and ``j`` columns of ``gain (n, m)`` (finite)."""
+    n, m = gain.shape
+    D = np.zeros((n + 1, m + 1))
+    for i in range(1, n + 1):
+        for j in range(1, m + 1):
+            g = gain[i - 1, j - 1]
+            best = D[i - 1, j - 1] + (g if g > 0.0 else 0.0)
+            if D[i, j - 1] > best:
+                best = D[i, j - 1]
+            if D[i - 1, j] > best:
+                best = D[i - 1, j]
+            D[i, j] = best
+    return D

@@ -34,6 +34,7 @@ import numpy as np
 
 from .._numeric import cross
 from ..appearance import contrasts_agree
+from ._kernels import alignment_table
 from .central import meeting, rad_per_px, residuals2, sides, translation_costs, truncated_residuals2
 from .rotation import refine_rotation, rotation_angle_deg, rotation_from_directions
 
@@ -219,10 +220,7 @@ def _monotone_alignment(gain: np.ndarray) -> list:
     """The pairs ``(i, j)``, increasing in both, of largest total ``gain[i, j]`` (only positive gains
     are taken): a sequence alignment by dynamic programming."""
     n, m = gain.shape
-    D = np.zeros((n + 1, m + 1))
-    for i in range(1, n + 1):
-        for j in range(1, m + 1):
-            D[i, j] = max(D[i - 1, j], D[i, j - 1], D[i - 1, j - 1] + max(gain[i - 1, j - 1], 0.0))
+    D = alignment_table(np.ascontiguousarray(gain, dtype=float))
     pairs, i, j = [], n, m
     while i > 0 and j > 0:
         if gain[i - 1, j - 1] > 0 and D[i, j] == D[i - 1, j - 1] + gain[i - 1, j - 1]:
@@ -373,33 +371,48 @@ class LinesInOrder:
                 break
         return pairs, t
 
-    def _seeds(self, thr, c2):
-        """Every pair of offsets of every two families (class docstring, 1), each fitted once (least
-        squares on its common meeting rays, all offsets in one batch): ``[(cost, pairs, (kA, kB))]``."""
-        found = []
+    def _seeds(self, thr, c2, top: int):
+        """The ``top`` best of every pair of offsets of every two families (class docstring, 1), each
+        fitted once (least squares on its common meeting rays, all offsets in one batch), the best
+        first (ties in the order of the families, then of the offsets): ``[(cost, pairs, (kA, kB))]``."""
+        costs, made = [], []
         for f, g in itertools.combinations(self.keys, 2):
             GA, GB = self.grids[f, g]
-            (na_f, na_g), (nb_f, nb_g) = GA.shape, GB.shape
-            combos, kAs, kBs, ids = [], [], [], []
-            for df in range(-(nb_f - 1), na_f):
-                i0, i1 = max(0, df), min(na_f, nb_f + df)
-                for dg in range(-(nb_g - 1), na_g):
-                    j0, j1 = max(0, dg), min(na_g, nb_g + dg)
-                    kA, kB = GA[i0:i1, j0:j1], GB[i0 - df:i1 - df, j0 - dg:j1 - dg]
-                    ok = (kA >= 0) & (kB >= 0)
-                    if ok.sum() < self.min_meetings:
-                        continue
-                    ids.append(np.full(int(ok.sum()), len(combos)))
-                    kAs.append(kA[ok])
-                    kBs.append(kB[ok])
-                    combos.append({f: [(i, i - df) for i in range(i0, i1)], g: [(j, j - dg) for j in range(j0, j1)]})
-            if not combos:
+            # every two meeting rays, one of each grid: the offsets (df, dg) that bring them together
+            ia, ja = np.nonzero(GA >= 0)
+            ib, jb = np.nonzero(GB >= 0)
+            df = (ia[:, None] - ib[None, :]).ravel()
+            dg = (ja[:, None] - jb[None, :]).ravel()
+            a = np.repeat(np.arange(len(ia)), len(ib))
+            b = np.tile(np.arange(len(ib)), len(ia))
+            # grouped by offset (df, then dg), each group's rays in A's row-major order
+            o = np.lexsort((a, dg, df))
+            df, dg, a, b = df[o], dg[o], a[o], b[o]
+            start = np.flatnonzero(np.r_[True, (np.diff(df) != 0) | (np.diff(dg) != 0)])
+            count = np.diff(np.r_[start, len(df)])
+            keep = count >= self.min_meetings
+            if not keep.any():
                 continue
-            kA, kB, cid = np.concatenate(kAs), np.concatenate(kBs), np.concatenate(ids)
-            costs = self._batch_costs(kA, kB, cid, len(combos), thr, c2)
-            found += [(float(costs[k]), combos[k], (kAs[k], kBs[k])) for k in range(len(combos))]
-        found.sort(key=lambda h: h[0])
-        return found
+            group = np.repeat(np.cumsum(keep) - 1, count)
+            sel = np.repeat(keep, count)
+            kA, kB, cid = GA[ia[a[sel]], ja[a[sel]]], GB[ib[b[sel]], jb[b[sel]]], group[sel]
+            costs.append(self._batch_costs(kA, kB, cid, int(keep.sum()), thr, c2))
+            made.append((f, g, GA.shape, GB.shape, df[start[keep]], dg[start[keep]], kA, kB,
+                         np.r_[0, np.cumsum(count[keep])]))
+        if not made:
+            return []
+        first = np.cumsum([0] + [len(c) for c in costs])  # each family pair's first offset, over all
+        costs = np.concatenate(costs)
+        out = []
+        for k in np.argsort(costs, kind="stable")[:top]:
+            m = int(np.searchsorted(first, k, side="right")) - 1
+            f, g, (na_f, na_g), (nb_f, nb_g), dfs, dgs, kA, kB, bounds = made[m]
+            q = int(k - first[m])
+            df, dg, u, v = int(dfs[q]), int(dgs[q]), bounds[q], bounds[q + 1]
+            i0, i1, j0, j1 = max(0, df), min(na_f, nb_f + df), max(0, dg), min(na_g, nb_g + dg)
+            pairs = {f: [(i, i - df) for i in range(i0, i1)], g: [(j, j - dg) for j in range(j0, j1)]}
+            out.append((float(costs[k]), pairs, (kA[u:v], kB[u:v])))
+        return out
 
     def _batch_costs(self, kA, kB, cid, n, thr, c2):
         """For ``n`` sets of meeting rays (A's ``kA`` seen as B's ``kB``, set ``cid``): each set's least
@@ -428,7 +441,7 @@ class LinesInOrder:
         """The ``top`` best seeds, each aligned again: ``[(pairs of lines (A, B), unit displacement)]``."""
         out = []
         seeds = []
-        for _, pairs, (kA, kB) in self._seeds(thr, c2)[:4 * top]:  # one least squares each, then three rounds
+        for _, pairs, (kA, kB) in self._seeds(thr, c2, 4 * top):  # one least squares each, then three rounds
             t, cost = self._fit(kA, kB, thr, c2)
             seeds.append((cost, pairs, t))
         seeds.sort(key=lambda h: h[0])
