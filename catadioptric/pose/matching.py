@@ -106,10 +106,10 @@ def family_matches(ea: dict, eb: dict, *, max_cost_gap: float = 100.0, max_match
     ub = np.array([_sd(Cb[k]) for k in kb])
     seen, out = set(), []
     for i1, i2 in itertools.permutations(range(len(ka)), 2):
-        if np.linalg.norm(np.cross(sa[i1], sa[i2])) < 0.1:
+        if np.linalg.norm(cross(sa[i1], sa[i2])) < 0.1:
             continue
         for j1, j2 in itertools.permutations(range(len(kb)), 2):
-            if np.linalg.norm(np.cross(sb[j1], sb[j2])) < 0.1:
+            if np.linalg.norm(cross(sb[j1], sb[j2])) < 0.1:
                 continue
             for g1, g2 in itertools.product((1.0, -1.0), repeat=2):
                 tol = 3.0 * (ua[i1] + ua[i2] + ub[j1] + ub[j2]) + np.radians(1.0)
@@ -202,7 +202,7 @@ def _contrasts(view, est: dict, signs: dict) -> np.ndarray | None:
     out = np.full(len(view.uv), np.nan)
     for key, sign in signs.items():
         e = est[key]
-        m = sign * np.cross(e.direction, sides(view, e))
+        m = sign * cross(e.direction, sides(view, e))
         out[np.asarray(e.lines, dtype=np.int64)] = view.appearance.contrast(e.lines, m)
     return out
 
@@ -269,9 +269,9 @@ class LinesInOrder:
             if not (2 <= na <= max_lines and 2 <= nb <= max_lines):
                 continue
             d = ea[a].direction
-            e1 = np.cross(d, np.eye(3)[int(np.argmin(np.abs(d)))])
+            e1 = cross(d, np.eye(3)[int(np.argmin(np.abs(d)))])
             e1 /= np.linalg.norm(e1)
-            e2 = np.cross(d, e1)
+            e2 = cross(d, e1)
             oa = np.asarray(ea[a].lines)[_pencil_order(ea[a].normals, e1, e2)]
             ob = np.asarray(eb[b].lines)[_pencil_order(eb[b].normals, self.R @ e1, self.R @ e2)]
             self.orders[a] = (oa, ob)
@@ -306,7 +306,7 @@ class LinesInOrder:
         out = np.full(kA.shape, c2)
         if ok.any():
             P, Q = self.ra[kA[ok]], self.xb[kB[ok]]
-            Av = np.cross(P, Q)
+            Av = cross(P, Q)
             Av /= np.maximum(np.linalg.norm(Av, axis=1), 1e-300)[:, None]
             out[ok] = truncated_residuals2(Av, P, Q, t[None], thr, c2, min_parallax=3.0 * thr)[0][0]
         return out
@@ -316,7 +316,7 @@ class LinesInOrder:
         squares, then again on its inliers (``rounds`` in all); with its truncated cost over all of
         A's meeting rays."""
         P, Q = self.ra[kA], self.xb[kB]
-        Av = np.cross(P, Q)
+        Av = cross(P, Q)
         Av /= np.maximum(np.linalg.norm(Av, axis=1), 1e-300)[:, None]
         use = np.ones(len(kA), dtype=bool)
         t, cost = None, np.inf
@@ -505,7 +505,7 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
         n_ok, cost_v = 0, c2 * len(xa)
         if len(vi):
             P, Q = ra[vi], xb[vj]
-            Av = np.cross(P, Q)
+            Av = cross(P, Q)
             Av /= np.maximum(np.linalg.norm(Av, axis=1), 1e-300)[:, None]
             _, inl = translation_costs(Av, P, Q, t[None], thr, c2, min_parallax=3.0 * thr)
             r2 = residuals2(Av, t[None], thr)[0]
@@ -539,13 +539,13 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
             return []
         ci, cj = np.array(cand_i), np.array(cand_j)
         p_, q_ = ra[ci], xb[cj]
-        A = np.cross(p_, q_)
+        A = cross(p_, q_)
         na = np.linalg.norm(A, axis=1)
         A = A / np.maximum(na, 1e-300)[:, None]
         rng = np.random.default_rng(seed)
         S = rng.integers(0, len(ci), (trials, 2))
         S = S[ci[S[:, 0]] != ci[S[:, 1]]]
-        T = np.cross(A[S[:, 0]], A[S[:, 1]])
+        T = cross(A[S[:, 0]], A[S[:, 1]])
         nt = np.linalg.norm(T, axis=1)
         T = T[nt > 1e-9] / nt[nt > 1e-9, None]
         if len(T) == 0:

@@ -13,6 +13,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .._checks import CatadioptricError, as_float_array, as_rotation
+from .._numeric import cross
 
 __all__ = ["rotation_from_directions", "rotation_angle_deg", "DirectionRotation", "refine_rotation",
            "exp_rotation", "skew", "information"]
@@ -66,7 +67,7 @@ def rotation_from_directions(a, b, weights=None) -> np.ndarray:
         if np.count_nonzero(w) < 2:
             raise CatadioptricError(f"weights: expected at least 2 positive weights, got {np.count_nonzero(w)}")
     if len(a) == 2:
-        ca, cb = np.cross(a[0], a[1]), np.cross(b[0], b[1])
+        ca, cb = cross(a[0], a[1]), cross(b[0], b[1])
         if np.linalg.norm(ca) < 1e-12 or np.linalg.norm(cb) < 1e-12:
             raise CatadioptricError("a, b: expected two non-parallel directions, got parallel (or antiparallel) ones")
         a = np.vstack([a, ca / np.linalg.norm(ca)])
