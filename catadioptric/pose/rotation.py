@@ -22,10 +22,11 @@ __all__ = ["rotation_from_directions", "rotation_angle_deg", "DirectionRotation"
 def skew(v) -> np.ndarray:
     """``[v]_x`` for ``v (..., 3)``: ``skew(v) @ x == cross(v, x)``."""
     v = np.asarray(v, dtype=float)
-    z = np.zeros(v.shape[:-1])
-    return np.stack([np.stack([z, -v[..., 2], v[..., 1]], -1),
-                     np.stack([v[..., 2], z, -v[..., 0]], -1),
-                     np.stack([-v[..., 1], v[..., 0], z], -1)], -2)
+    S = np.zeros(v.shape[:-1] + (3, 3))
+    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
+    return S
 
 
 def exp_rotation(w) -> np.ndarray:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._checks import CatadioptricError, as_float_array, as_rotation
+from .._numeric import cross
 
 __all__ = ["translation_from_lines", "relative_translation_from_lines", "triangulate_line", "ray_depths"]
 
@@ -145,14 +146,14 @@ def triangulate_line(s, o, d, prior=None, iters: int = 1):
     s = np.asarray(s, float)
     o = np.asarray(o, float)
     d = np.asarray(d, float)
-    e1 = np.cross(s, [1.0, 0.0, 0.0] if abs(s[0]) < 0.8 else [0.0, 1.0, 0.0])
+    e1 = cross(s, [1.0, 0.0, 0.0] if abs(s[0]) < 0.8 else [0.0, 1.0, 0.0])
     e1 /= np.linalg.norm(e1)
-    e2 = np.cross(s, e1)
+    e2 = cross(s, e1)
     # reciprocal product of the line (s, x e1' + y e2') with the ray (d, o x d), e' spanning m
-    m1, m2 = np.cross(e1, s), np.cross(e2, s)  # moments of unit offsets along e1, e2
+    m1, m2 = cross(e1, s), cross(e2, s)  # moments of unit offsets along e1, e2
     A0 = np.stack([d @ m1, d @ m2], axis=1)
-    rhs0 = -(np.cross(o, d) @ s)
-    sine = np.maximum(np.linalg.norm(np.cross(d, s), axis=1), 1e-9)
+    rhs0 = -(cross(o, d) @ s)
+    sine = np.maximum(np.linalg.norm(cross(d, s), axis=1), 1e-9)
     A0, rhs0 = A0 / sine[:, None], rhs0 / sine  # rows: the metric miss of each ray
     w = np.ones(len(d))
     for it in range(iters + 1):
