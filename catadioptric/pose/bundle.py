@@ -147,6 +147,14 @@ def _corner_system(pb, R, y, sigma, c2, robust, cmask):
     return sigma**2 * (Jw.T @ J), sigma**2 * (Jw.T @ r), cost
 
 
+def _corner_cost(pb, R, y, c2, robust, cmask):
+    """The meeting lines' share of the cost alone (that of :func:`_corner_system`, the same bits)."""
+    r = pb.corner_residuals(R, y)
+    if len(r) == 0:
+        return 0.0
+    return _weights(r[:, None], 1.0, c2, robust, cmask)[1]
+
+
 def _normal_equations(pb, A, b, e, w, lam):
     """Schur complement over the depths: ``S dy = -g`` and the depth back-substitution terms.
 
@@ -263,7 +271,7 @@ def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter, tol_chi2, settle=False,
             R2, y2, mu2 = pb.apply(R, y, mu, dy, dmu)
             mu2, e2, state2 = _trial(pb, R2, y2, mu2, settle)
             _, cost2 = _weights(e2, sigma, c2, robust, mask)
-            cost2 += _corner_system(pb, R2, y2, sigma, c2, robust, cmask)[2]
+            cost2 += _corner_cost(pb, R2, y2, c2, robust, cmask)
             if cost2 <= cost:
                 improved = True
                 break
@@ -376,7 +384,7 @@ def refine_two_view(data: TwoViewData, start: TwoViewStart, options: TwoViewOpti
     # the meetings' deviations follow the pixels' noise where it is below the robust stage's scale
     # (exact pixels: the rays that passed stage 1's threshold without meeting are then outliers)
     pb.corner_sigma = pb.corner_sigma * min(1.0, noise / sigma_cost)
-    cmask = np.abs(pb.corner_terms(R, y)[0]) <= inlier_sigmas
+    cmask = np.abs(pb.corner_residuals(R, y)) <= inlier_sigmas
     inl = fin & (dist <= inlier_sigmas * noise)
     if inl[view == 1].sum() < 3:
         inl = fin

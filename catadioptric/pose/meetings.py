@@ -27,7 +27,7 @@ from .._checks import CatadioptricError
 from .._numeric import cross
 from .rotation import skew
 
-__all__ = ["meeting_terms", "check_corners"]
+__all__ = ["meeting_terms", "meeting_residuals", "check_corners"]
 
 
 def meeting_terms(pb, R, y):
@@ -44,10 +44,7 @@ def meeting_terms(pb, R, y):
     s, nv, al, rho, u, that, ntv, _ = pb.parts(y)
     l1, l2 = pb.corners[:, 0], pb.corners[:, 1]
     f1, f2 = pb.fam[l1], pb.fam[l2]
-    r1, r2 = rho[l1], rho[l2]
-    # in B's orientation, relative to c_A, in units of the baseline: U = R (P - c_A) / k, T = R s
-    X = np.stack([(u[l1] / r1[:, None]) @ R.T, s[f1] @ R.T, (u[l2] / r2[:, None]) @ R.T, s[f2] @ R.T,
-                  np.broadcast_to(that, (K, 3))], axis=1)  # (K, 5, 3)
+    X = _lines_in_b(pb, R, s, rho, u, that)
     r = _transversal_residual(X)
     h = 1e-7
     # the 15 coordinates' central differences in one batch: 30 perturbed copies of X (each row's
@@ -73,6 +70,25 @@ def meeting_terms(pb, R, y):
             J[k, 6 + 2 * f + j] = np.sum(D[:, a + 1] * (ds @ R.T), 1)
     sig = pb.corner_sigma
     return r / sig, J / sig[:, None]
+
+
+def meeting_residuals(pb, R, y):
+    """The residuals ``r (K,)`` of :func:`meeting_terms` alone (the same bits), without their Jacobian:
+    what a trial step is judged by."""
+    if len(pb.corners) == 0:
+        return np.zeros(0)
+    s, _, _, rho, u, that, _, _ = pb.parts(y)
+    return _transversal_residual(_lines_in_b(pb, R, s, rho, u, that)) / pb.corner_sigma
+
+
+def _lines_in_b(pb, R, s, rho, u, that):
+    """``X (K, 5, 3)`` of :func:`_transversal_residual` for the corners' lines: in B's orientation,
+    relative to c_A, in units of the baseline, ``U = R (P - c_A) / k``, ``T = R s``, then ``t^``."""
+    l1, l2 = pb.corners[:, 0], pb.corners[:, 1]
+    f1, f2 = pb.fam[l1], pb.fam[l2]
+    r1, r2 = rho[l1], rho[l2]
+    return np.stack([(u[l1] / r1[:, None]) @ R.T, s[f1] @ R.T, (u[l2] / r2[:, None]) @ R.T, s[f2] @ R.T,
+                     np.broadcast_to(that, (len(l1), 3))], axis=1)
 
 
 def _transversal_residual(X):

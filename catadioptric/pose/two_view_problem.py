@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..linefit.jacobian import image_jacobian, project_with_jacobian
-from .meetings import meeting_terms
+from .meetings import meeting_residuals, meeting_terms
 from .rotation import exp_rotation, skew
 
 __all__ = ["Problem", "MU_MAX"]  # used by the two-view refinement (pose.bundle)
@@ -110,6 +110,10 @@ class Problem:
     def corner_terms(self, R, y):
         """The meeting lines' residuals and Jacobian (:func:`catadioptric.pose.meetings.meeting_terms`)."""
         return meeting_terms(self, R, y)
+
+    def corner_residuals(self, R, y):
+        """The meeting lines' residuals alone (:func:`catadioptric.pose.meetings.meeting_residuals`)."""
+        return meeting_residuals(self, R, y)
 
     def translation(self, R, y) -> np.ndarray:
         """``t`` of ``x_B = R x_A + t``."""
