@@ -371,9 +371,12 @@ def _run(args) -> int:
                    args.camera_b or args.camera)
     masks = (read_mask(args.mask, images[0].shape[:2], "--mask") if args.mask else None,
              read_mask(args.mask_b, images[1].shape[:2], "--mask-b") if args.mask_b else None)
+    from .detect.detector import preset_options
+
     opts = {} if args.denoise is None else {"denoise": args.denoise}
     if args.threshold is not None:
         opts["threshold"] = args.threshold
+    opts = preset_options(args.preset, opts)
     res = relative_pose_from_images(images[0], images[1], cam_a, cam_b, detect_options=opts,
                                     min_pixels=args.min_pixels, max_rotation_deg=args.max_rotation,
                                     decisive=args.decisive, decisive_matching=args.decisive_matching,
@@ -399,6 +402,7 @@ def _run(args) -> int:
 
 def register(sub) -> None:
     from .cliargs import CALIBRATION_RIG_HELP, positive_float, positive_int
+    from .detect.detector import PRESETS
 
     p = sub.add_parser("relative-pose", help="relative pose from two images alone (no labels)",
                        description="Detect the line curves of two images of a catadioptric rig, group them into "
@@ -433,6 +437,8 @@ def register(sub) -> None:
     p.add_argument("--denoise", choices=["auto", "nlmeans", "bilateral", "none"],
                    help="denoising before the edges (default auto)")
     p.add_argument("--threshold", type=positive_float, default=None, metavar="PX",
-                   help="the detector's distance of a line's pixels to its curve (default 1; 1.5 for a chessboard, "
-                        "whose edges break at every corner: docs/cameras.md)")
+                   help="the detector's distance of a line's pixels to its curve (default 1; overrides the preset's)")
+    p.add_argument("--preset", choices=sorted(PRESETS),
+                   help="the detector's options for a kind of scene (catadioptric.detect.PRESETS): chessboard for "
+                        "a board's masked lines, whose edges break at every corner (docs/cameras.md)")
     p.set_defaults(func=_run)

@@ -301,6 +301,23 @@ def test_cli_image_and_dataset(renders, tmp_path, capsys):
     assert "recovered" in open(os.path.join(out3, "report.md")).read()
 
 
+def test_cli_preset_and_its_overrides(renders, tmp_path):
+    """``--preset chessboard`` gives the preset's options (catadioptric.detect.PRESETS), a flag given
+    beside it wins, and the lines.json records what was used."""
+    from catadioptric.detect import PRESETS, preset_options
+
+    png = os.path.join(renders["povray"], "A", "beauty.png")
+    out = str(tmp_path / "p")
+    assert main(["detect", png, "--rig", "hyperboloid", "--preset", "chessboard", "--threshold", "2",
+                 "--out", out]) == 0
+    used = json.load(open(os.path.join(out, "lines.json")))["options"]
+    assert used["threshold"] == 2.0
+    assert all(used[k] == v for k, v in PRESETS["chessboard"].items() if k != "threshold"), used
+    assert preset_options(None, {"sigma": 2.0}) == {"sigma": 2.0}
+    with pytest.raises(CatadioptricError, match=r"preset: expected one of \['chessboard'\], got 'wall'"):
+        preset_options("wall")
+
+
 @pytest.mark.parametrize("argv, message", [
     (["detect", "/nonexistent/x.png", "--rig", "sphere"], "IMAGE: expected an image file"),
     (["detect", "{png}"], "--rig: expected the rig of the image"),

@@ -19,7 +19,7 @@ view of a dataset (with a report). See docs/detect.md.
 | lines grown along their curves over every edge point (option `grow_gap_px`, off) | `grow.py` |
 | families (voting over directions) | `families.py` |
 | families of two views at once, under their rotation (the small ones one image cannot single out) | `joint_families.py` |
-| the orchestration and options | `detector.py` |
+| the orchestration, options and presets | `detector.py` |
 | the result and its conversions | `result.py` |
 | scores against the labels | `evaluate.py` |
 | datasets scored, reports | `report.py` |
@@ -28,10 +28,11 @@ view of a dataset (with a report). See docs/detect.md.
 """
 from __future__ import annotations
 
-from .detector import DEFAULTS, detect_lines
+from .detector import DEFAULTS, PRESETS, detect_lines, preset_options
 from .evaluate import evaluate_view, label_curves
 from .families import Family
 from .report import evaluate_dataset
 from .result import DetectedLines
 
-__all__ = ["detect_lines", "DetectedLines", "Family", "DEFAULTS", "evaluate_view", "label_curves", "evaluate_dataset"]
+__all__ = ["detect_lines", "DetectedLines", "Family", "DEFAULTS", "PRESETS", "preset_options", "evaluate_view",
+           "label_curves", "evaluate_dataset"]

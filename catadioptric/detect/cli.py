@@ -7,6 +7,7 @@ import os
 import numpy as np
 
 from .._checks import CatadioptricError
+from .detector import PRESETS
 from ..cliargs import CALIBRATION_RIG_HELP, check_out_dir, nonnegative_float, positive_float, positive_int, resolve_rig
 
 __all__ = ["register", "read_image", "read_mask", "camera_from_folder"]
@@ -89,12 +90,14 @@ def camera_from_folder(folder: str, flag: str = "--rig"):
 
 
 def _options(args) -> dict:
+    from .detector import preset_options
+
     o = {}
-    for k in ("denoise", "sigma", "threshold", "min_pixels", "min_family_lines"):
+    for k in ("denoise", "sigma", "threshold", "max_width", "min_pixels", "min_family_lines"):
         v = getattr(args, k)
         if v is not None:
             o[k] = v
-    return o
+    return preset_options(args.preset, o)
 
 
 def _run(args) -> int:
@@ -168,9 +171,14 @@ def register(sub) -> None:
     p.add_argument("--views", nargs="+", metavar="VIEW", help="dataset views to detect (default: all)")
     p.add_argument("--denoise", choices=["auto", "nlmeans", "bilateral", "none"],
                    help="denoising before the edges (default auto: non-local means when the image is noisy)")
+    p.add_argument("--preset", choices=sorted(PRESETS),
+                   help="options for a kind of scene (catadioptric.detect.PRESETS; the flags below override them): "
+                        "chessboard = --threshold 1.5 --sigma 0.7 --max-width 2 (docs/detect.md, \"Presets\")")
     p.add_argument("--sigma", type=positive_float, help="Gaussian of the gradients, pixels (default 1)")
     p.add_argument("--threshold", type=positive_float, help="pixel distance of a line's pixels to its curve "
                                                             "(default 1)")
+    p.add_argument("--max-width", type=positive_float, metavar="PX",
+                   help="widest band whose two edges are paired into its centre line, pixels (default 6)")
     p.add_argument("--min-pixels", type=positive_int, help="shortest line kept, pixels (default 20)")
     p.add_argument("--min-family-lines", type=positive_int, help="fewest lines of a family (default 3)")
     p.add_argument("--tolerance", type=nonnegative_float, default=1.5,

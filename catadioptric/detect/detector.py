@@ -19,7 +19,7 @@ from ..linefit.planes import pixel_rays_with_jacobian
 from .region import ANNULUS_MARGIN_PX, check_mask, mirror_region, scene_annulus
 from .result import DetectedLines
 
-__all__ = ["detect_lines", "check_options", "DEFAULTS"]
+__all__ = ["detect_lines", "check_options", "preset_options", "DEFAULTS", "PRESETS"]
 
 #: The options of :func:`detect_lines` and their defaults (docs/detect.md says what each does).
 DEFAULTS = {
@@ -46,6 +46,23 @@ DEFAULTS = {
     "max_log_nfa": -4.0,        # families: significance a family must reach (log of its number of false alarms)
     "concurrency_px": 5.0,      # families: reject a direction whose lines mostly end this close to its image
 }
+
+
+#: Named sets of options for a kind of scene (docs/detect.md, "Presets"). ``chessboard``: every edge
+#: of a chessboard is a step edge that changes polarity at each corner, and a board far or out of
+#: focus is already blurred: no band of two edges to pair (``max_width`` 2), less smoothing of the
+#: gradients (``sigma`` 0.7), and pieces joined across the corners a little off one curve
+#: (``threshold`` 1.5). Measured on ../shared/real (docs/cameras.md).
+PRESETS = {
+    "chessboard": {"threshold": 1.5, "sigma": 0.7, "max_width": 2.0},
+}
+
+
+def preset_options(name: str | None, options: dict | None = None) -> dict:
+    """The options of preset ``name`` (:data:`PRESETS`; None: none), overridden by ``options``."""
+    if name is not None and name not in PRESETS:
+        raise CatadioptricError(f"preset: expected one of {sorted(PRESETS)}, got {name!r}")
+    return {**(PRESETS[name] if name is not None else {}), **(options or {})}
 
 
 def check_options(options: dict) -> dict:

@@ -34,17 +34,16 @@ from itertools import combinations
 import numpy as np
 
 from .._checks import CatadioptricError
+from ..detect.detector import PRESETS
 
 __all__ = ["run_real", "real_markdown", "board_symmetries", "angle_to_nearest", "register_real", "BOARD_OPTIONS"]
 
 #: the prior of the static pairs' second run: a camera on a tripod turns by at most this (degrees)
 STATIC_PRIOR_DEG = 30.0
 
-#: the detector's options for a chessboard (its mask given): every edge of a square changes
-#: polarity at each corner, and blur joins the pieces a little off one curve; at the default
-#: threshold of 1 px the far board of image 002 gives families 8.8 and 67 degrees off its axes,
-#: at 1.5 px within 0.8 degree (the report shows both)
-BOARD_OPTIONS = {"threshold": 1.5}
+#: the detector's options for a chessboard (its mask given): the preset ``chessboard``
+#: (catadioptric.detect.PRESETS; the report shows the defaults beside them)
+BOARD_OPTIONS = PRESETS["chessboard"]
 
 #: the board's line symmetries in its own frame: identity and the half-turns about its axes
 BOARD_SYMMETRIES = (np.eye(3), np.diag([1.0, -1.0, -1.0]), np.diag([-1.0, 1.0, -1.0]), np.diag([-1.0, -1.0, 1.0]))
