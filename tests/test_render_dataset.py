@@ -104,9 +104,14 @@ def test_rerun_skips_and_resume_redoes_only_broken_views(reference, tmp_path):
     assert m["run"]["rendered"] == ["view_01", "view_02"] and m["run"]["skipped"] == ["view_00"]
     assert os.stat(os.path.join(out, "view_00", "beauty.png")).st_mtime_ns == stamp["view_00"]
     assert _differ(out, ref) == []  # byte-identical to the first run
-    # other parameters: every view is stale and redone
+    # a run on some of the views keeps the others in the manifest (their folders are done)
+    m = render_dataset(scene, views[1:2], cam, out, renderer="mitsuba", quality="draft", progress=False)
+    assert m["run"]["rendered"] == [] and [e["name"] for e in m["views"]] == ["view_00", "view_01", "view_02"]
+    assert _differ(out, ref) == []
+    # other parameters: every view is stale and redone; those not asked for leave the manifest
     m = render_dataset(scene, views[:1], cam, out, renderer="mitsuba", quality="standard", progress=False)
     assert m["run"]["status_before"] == {"view_00": "stale"} and m["run"]["rendered"] == ["view_00"]
+    assert [e["name"] for e in m["views"]] == ["view_00"]
 
 
 def test_killed_run_resumes(tmp_path):

@@ -353,16 +353,19 @@ def _render_locked(scene, views, cam, out_dir, renderer, q, workers, scheduler, 
     threads = None
     if workers > 1 or scheduler is not None:
         threads = max(1, (os.cpu_count() or 1) // workers) if scheduler is None else None
-    tasks, entries = [], []
-    for name, pose in views:
-        seed = _view_seed(scene.seed, name)
-        params = {"format": FORMAT, "renderer": renderer, "quality": q, "camera": cam.to_dict(),
-                  "pose": pose.to_dict(), "scene": digest, "seed": seed, "line_images": line_images}
+    def fingerprint(name, pose_dict):
+        params = {"format": FORMAT, "renderer": renderer, "quality": q, "camera": cam.to_dict(), "pose": pose_dict,
+                  "scene": digest, "seed": _view_seed(scene.seed, name), "line_images": line_images}
         if extras:  # absent when none, so that the fingerprints of plain datasets do not change
             params["extras"] = list(extras)
         if renderer == "mitsuba":  # llvm and the scalar fallback differ in their last bits: never mixed
             params["mitsuba_variant"] = versions["mitsuba_variant"]
-        fp = _fingerprint(params)
+        return _fingerprint(params)
+
+    tasks, entries = [], []
+    for name, pose in views:
+        seed = _view_seed(scene.seed, name)
+        fp = fingerprint(name, pose.to_dict())
         folder = os.path.join(out_dir, name)
         tasks.append(ViewTask(name, folder, renderer, q, cam.to_dict(), pose.to_dict(), seed, fp, digest, threads,
                               line_images, extras, versions.get("mitsuba_variant")))
@@ -391,7 +394,14 @@ def _render_locked(scene, views, cam, out_dir, renderer, q, workers, scheduler, 
             ag = json.load(f)["renderer_label_agreement"]
         e["label_differing_pixels"] = ag["differing_pixels"]
         agreement[t.name] = ag["differing_pixels"]
-    total_px = cam.pinhole.width * cam.pinhole.height * len(tasks)
+    # views of an earlier run that this one was not asked for (a subset) stay in the manifest while
+    # their folders are done with these parameters: a run on some views does not hide the others
+    kept = [e for e in _earlier_views(out_dir) if e["name"] not in status and view_status(
+        os.path.join(out_dir, e["name"]), fingerprint(e["name"], e["pose"]), extra_files) == "done"]
+    if kept:
+        entries = sorted(entries + kept, key=lambda e: e["name"])
+        agreement.update({e["name"]: e["label_differing_pixels"] for e in kept})
+    total_px = cam.pinhole.width * cam.pinhole.height * len(entries)
     scene_info = {}
     if "mesh" in extras:
         from .extras import MESH_FILE, scene_ply
@@ -422,6 +432,18 @@ def _render_locked(scene, views, cam, out_dir, renderer, q, workers, scheduler, 
     }
     atomic_write_json(os.path.join(out_dir, MANIFEST), manifest)
     return manifest
+
+
+def _earlier_views(out_dir: str) -> list:
+    """The view entries of the manifest already in ``out_dir`` (none when there is none or it is not
+    a dataset's manifest)."""
+    try:
+        with open(os.path.join(out_dir, MANIFEST)) as f:
+            views = json.load(f).get("views", [])
+    except (OSError, ValueError, AttributeError):
+        return []
+    return [e for e in views if isinstance(e, dict) and isinstance(e.get("name"), str) and _NAME.match(e["name"])
+            and isinstance(e.get("pose"), dict) and "label_differing_pixels" in e]
 
 
 def _run(scene, todo, workers, scheduler):
