@@ -97,3 +97,30 @@ def test_the_report_and_overlays_are_written(report):
     for f in IMAGES:
         assert (out / f"mei_{f[:-4]}_lines.png").stat().st_size > 0
     assert (out / "ocamcalib_room.png").stat().st_size > 0
+
+
+def test_relative_pose_of_the_board_with_the_chessboard_preset(tmp_path):
+    """The command a user runs for a board's motion (docs/cameras.md): both images' board masks and
+    ``--preset chessboard``. The far board's pair is ambiguous (exit code 3), its first answer the
+    board's motion up to its symmetries, as in the report."""
+    import numpy as np
+
+    from catadioptric.validate.real import angle_to_nearest, board_symmetries
+
+    a, b = IMAGES
+    out = tmp_path / "pose"
+    code = main(["relative-pose", str(MEI / a), str(MEI / b), "--rig", str(MEI / "mei_omnidir.yaml"),
+                 "--mask", str(MEI / "masks" / a), "--mask-b", str(MEI / "masks" / b), "--preset", "chessboard",
+                 "--out", str(out)])
+    pose = json.loads((out / "pose.json").read_text())
+    assert code == 3 and pose["ambiguous"], pose["notes"]
+    ext = json.loads((MEI / "board_extrinsics.json").read_text())["views"]
+
+    def rodrigues(r):
+        import cv2
+
+        return cv2.Rodrigues(np.asarray(r, float))[0]
+
+    truths = board_symmetries(rodrigues(ext[a]["rvec"]), rodrigues(ext[b]["rvec"]))
+    # each view's board axes are families within 1 degree (test above): about 1 degree per view
+    assert angle_to_nearest(np.asarray(pose["R"], float), truths)[0] < 2.0
