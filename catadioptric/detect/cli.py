@@ -171,9 +171,11 @@ def register(sub) -> None:
     p.add_argument("--views", nargs="+", metavar="VIEW", help="dataset views to detect (default: all)")
     p.add_argument("--denoise", choices=["auto", "nlmeans", "bilateral", "none"],
                    help="denoising before the edges (default auto: non-local means when the image is noisy)")
+    presets = "; ".join(f"{n} = " + " ".join(f"--{k.replace('_', '-')} {v:g}" for k, v in o.items())
+                        for n, o in PRESETS.items())
     p.add_argument("--preset", choices=sorted(PRESETS),
                    help="options for a kind of scene (catadioptric.detect.PRESETS; the flags below override them): "
-                        "chessboard = --threshold 1.5 --sigma 0.7 --max-width 2 (docs/detect.md, \"Presets\")")
+                        f"{presets} (docs/detect.md, \"Presets\")")
     p.add_argument("--sigma", type=positive_float, help="Gaussian of the gradients, pixels (default 1)")
     p.add_argument("--threshold", type=positive_float, help="pixel distance of a line's pixels to its curve "
                                                             "(default 1)")
