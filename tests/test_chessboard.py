@@ -11,7 +11,8 @@ from scipy.stats import chi2
 
 from catadioptric._checks import CatadioptricError
 from catadioptric.models import MeiCamera
-from catadioptric.pose.chessboard import (board_points, chessboard_pose, compare_board_poses, parse_pattern)
+from catadioptric.pose.chessboard import (board_mask, board_points, chessboard_pose, compare_board_poses,
+                                          parse_pattern)
 
 REAL = Path(__file__).resolve().parents[1].parent / "shared" / "real" / "mei"
 NEED_REAL = pytest.mark.skipif(not (REAL / "mei_omnidir.yaml").is_file(),
@@ -132,6 +133,28 @@ def test_real_pose_against_opencv_extrinsics(name, method):
         assert c["centre_error_relative"] < 0.01, c
     assert np.all(p.axis_family_deg < 1.0)
     assert np.max(p.rotation_std_deg) < 0.3 and np.max(p.translation_std_m) < 1e-3
+
+
+@NEED_REAL
+@pytest.mark.parametrize("name", ["img_para_001.png", "img_para_002.png", "img_para_004.png"])
+def test_board_mask_from_the_extrinsics_is_the_shared_one(name):
+    """The shared masks are the board's outline projected, filled and dilated by 12 px (the data's
+    README): the mask made from OpenCV's extrinsics differs from them only on their boundary (where
+    two rasterisations of one curve may disagree by a pixel), nowhere inside or outside it."""
+    import cv2
+
+    from catadioptric.formats import load_camera
+
+    ref = cv2.imread(str(REAL / "masks" / name), cv2.IMREAD_GRAYSCALE) > 0
+    R, t = _reference()[name]
+    m = board_mask(load_camera(REAL / "mei_omnidir.yaml"), R, t, ref.shape, PATTERN, SQUARE)
+    boundary = cv2.morphologyEx(ref.astype(np.uint8), cv2.MORPH_GRADIENT, np.ones((3, 3), np.uint8)) > 0
+    assert not np.any((m != ref) & ~boundary)
+    assert np.sum(m & ref) / np.sum(m | ref) > 0.99
+    # a board where a model with xi = 0.5 sees nothing (behind it): one line naming the function
+    behind = MeiCamera(width=1280, height=1024, xi=0.5, K=np.array(K), D=D)
+    with pytest.raises(CatadioptricError, match="board_mask: 256 of the board outline's 256 points do not project"):
+        board_mask(behind, np.eye(3), [-0.1, -0.1, -1.0], ref.shape, PATTERN, SQUARE)
 
 
 # ----------------------------------------------------------------------------- the command

@@ -36,6 +36,7 @@ from .._checks import CatadioptricError
 from .._numeric import LUMA
 
 __all__ = ["ChessboardPose", "chessboard_pose", "find_chessboard_corners", "parse_pattern", "compare_board_poses",
+           "board_mask",
            "board_symmetries", "board_points", "board_centre", "grey8", "project_points", "mirror_disc", "in_disc"]
 
 
@@ -158,6 +159,35 @@ def board_points(pattern, square: float) -> np.ndarray:
 def board_centre(pattern, square: float) -> np.ndarray:
     cols, rows = pattern
     return np.array([(cols - 1) * square / 2, (rows - 1) * square / 2, 0.0])
+
+
+def board_mask(cam, R, t, shape, pattern, square: float, *, margin_px: int = 12, samples: int = 64) -> np.ndarray:
+    """The board's image as a mask ``(H, W)`` bool (``shape``: the image's ``(H, W)``): the outline of
+    its squares (one square beyond the inner corners on every side, ``pattern + 1`` squares) at the
+    pose ``X_cam = R X_board + t``, each side sampled at ``samples`` points (a side's image is a
+    curve), projected through ``cam``, filled and dilated by ``margin_px`` pixels (a square of side
+    ``2 margin_px + 1``, as OpenCV's dilation repeated with its 3x3 kernel). The board masks of
+    ``../shared/real/mei`` are made so (tests/test_chessboard_mask.py)."""
+    import cv2
+
+    cols, rows = pattern
+    x0, x1, y0, y1 = -square, cols * square, -square, rows * square
+    s = np.linspace(0.0, 1.0, samples, endpoint=False)
+    outline = np.concatenate([np.stack([x0 + (x1 - x0) * s, np.full_like(s, y0)], 1),
+                              np.stack([np.full_like(s, x1), y0 + (y1 - y0) * s], 1),
+                              np.stack([x1 - (x1 - x0) * s, np.full_like(s, y1)], 1),
+                              np.stack([np.full_like(s, x0), y1 - (y1 - y0) * s], 1)])
+    X = np.concatenate([outline, np.zeros((len(outline), 1))], 1) @ np.asarray(R, float).T + np.asarray(t, float)
+    uv, ok = project_points(cam, X)
+    if not ok.all():
+        raise CatadioptricError(f"board_mask: {int(np.sum(~ok))} of the board outline's {len(ok)} points do not "
+                                "project into the image at this pose")
+    m = np.zeros(tuple(shape)[:2], np.uint8)
+    cv2.fillPoly(m, [np.round(uv * 16).astype(np.int32)], 255, lineType=cv2.LINE_8, shift=4)
+    if margin_px > 0:
+        k = cv2.getStructuringElement(cv2.MORPH_RECT, (2 * margin_px + 1, 2 * margin_px + 1))
+        m = cv2.dilate(m, k)
+    return m > 0
 
 
 def board_symmetries(pattern) -> list[tuple[str, np.ndarray]]:
