@@ -2,9 +2,12 @@
 
 The folder given (``../shared/real`` in CI and for the committed report, ``validate/real/``) holds
 ``mei/`` (a paracatadioptric camera calibrated with ``cv2.omnidir``: ``mei_omnidir.yaml``,
-images ``img_para_*.png`` of a fixed camera and a moving chessboard, ``board_extrinsics.json``
-with OpenCV's pose of the board for some of them, ``masks/`` of the board) and ``ocamcalib/``
-(a photograph of a room and its OCamCalib ``calib_results.txt``). The report measures:
+images of a fixed camera and a moving chessboard (every image file of the folder,
+:data:`IMAGE_SUFFIXES`), ``board_extrinsics.json`` with OpenCV's pose of the board for some of
+them (and optionally its ``pattern`` of inner corners and ``square`` in metres; else the board of
+``../shared/real``), ``masks/`` of the board, made from the extrinsics for an image without one)
+and ``ocamcalib/`` (photographs of a room and their OCamCalib ``calib_results.txt``). An image
+the detector cannot read is reported, not fatal. The report measures:
 
 * **board axes**: per image with extrinsics, the angle between each of the board's axes
   (``R[:, 0]``, ``R[:, 1]``, OpenCV's extrinsics) and the nearest family direction the detector
@@ -17,7 +20,7 @@ with OpenCV's pose of the board for some of them, ``masks/`` of the board) and `
   lines onto themselves: such answers tie, and must come out ``ambiguous`` with each listed);
 * **absolute pose** of the board (:func:`catadioptric.pose.chessboard.chessboard_pose`) against
   OpenCV's extrinsics, when that module is present;
-* **the OCamCalib room**: its three dominant families (most lines) and their pairwise angles (a
+* **the OCamCalib room**, per photograph: its three dominant families (most lines) and their pairwise angles (a
   Manhattan room: 90 degrees).
 
 The Mei images' terms are unknown: the overlays written for them draw the detected curves on a
@@ -25,7 +28,6 @@ plain background, never the photograph's pixels.
 """
 from __future__ import annotations
 
-import glob
 import json
 import os
 import time
@@ -36,7 +38,8 @@ import numpy as np
 from .._checks import CatadioptricError
 from ..detect.detector import PRESETS
 
-__all__ = ["run_real", "real_markdown", "board_symmetries", "angle_to_nearest", "register_real", "BOARD_OPTIONS"]
+__all__ = ["run_real", "real_markdown", "board_symmetries", "angle_to_nearest", "register_real", "BOARD_OPTIONS",
+           "image_names"]
 
 #: the prior of the static pairs' second run: a camera on a tripod turns by at most this (degrees)
 STATIC_PRIOR_DEG = 30.0
@@ -44,6 +47,13 @@ STATIC_PRIOR_DEG = 30.0
 #: the detector's options for a chessboard (its mask given): the preset ``chessboard``
 #: (catadioptric.detect.PRESETS; the report shows the defaults beside them)
 BOARD_OPTIONS = PRESETS["chessboard"]
+
+#: the board of ../shared/real/mei (inner corners, square in metres): used when
+#: ``board_extrinsics.json`` names no ``pattern`` and ``square`` of its own
+BOARD_PATTERN, BOARD_SQUARE = (8, 6), 0.042
+
+#: the image files the report reads from ``mei/`` and ``ocamcalib/`` (by suffix, any case)
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".pgm", ".ppm", ".bmp", ".tif", ".tiff")
 
 #: the board's line symmetries in its own frame: identity and the half-turns about its axes
 BOARD_SYMMETRIES = (np.eye(3), np.diag([1.0, -1.0, -1.0]), np.diag([-1.0, 1.0, -1.0]), np.diag([-1.0, -1.0, 1.0]))
@@ -81,6 +91,39 @@ def _read(path, grey=False):
     if img.ndim == 3:
         img = np.ascontiguousarray(img[..., [2, 1, 0]])
     return img
+
+
+def image_names(folder) -> list[str]:
+    """The images of ``folder`` (by suffix, :data:`IMAGE_SUFFIXES`), sorted by name."""
+    return sorted(f for f in os.listdir(folder)
+                  if f.lower().endswith(IMAGE_SUFFIXES) and os.path.isfile(os.path.join(folder, f)))
+
+
+def _stem(name: str) -> str:
+    return os.path.splitext(name)[0]
+
+
+def _board_masks(mei, images, views, cam, pattern, square):
+    """Each image's board mask: ``masks/<image>`` when given (non-zero: the board; its size must
+    be the image's), else for an image with extrinsics the board's outline projected at OpenCV's
+    pose (:func:`catadioptric.pose.chessboard.board_mask`, as ``../shared/real``'s masks are
+    made). Returns ``(masks, made)``: the masks by image, and the images whose mask was made."""
+    from ..pose.chessboard import board_mask
+
+    masks, made = {}, []
+    for n, img in images.items():
+        mp = os.path.join(mei, "masks", n)
+        if os.path.isfile(mp):
+            m = _read(mp, grey=True)
+            if m.shape != img.shape[:2]:
+                raise CatadioptricError(f"--data: mask {mp!r} is {m.shape[1]}x{m.shape[0]}, its image "
+                                        f"{img.shape[1]}x{img.shape[0]}")
+            masks[n] = m > 0
+        elif n in views:
+            v = views[n]
+            masks[n] = board_mask(cam, _rodrigues(v["rvec"]), v["tvec"], img.shape[:2], pattern, square)
+            made.append(n)
+    return masks, made
 
 
 def _curves_only(det, shape, scale: int = 1) -> np.ndarray:
@@ -141,24 +184,31 @@ def run_real(data: str, out: str, *, max_rotation_deg: float | None = None, prog
     cam = load_camera(calib)
     ext = json.load(open(os.path.join(mei, "board_extrinsics.json")))
     views = ext["views"]
-    names = sorted(os.path.basename(p) for p in glob.glob(os.path.join(mei, "img_para_*.png")))
+    pattern, square = tuple(ext.get("pattern", BOARD_PATTERN)), float(ext.get("square", BOARD_SQUARE))
+    names = image_names(mei)
+    if not names:
+        raise CatadioptricError(f"--data: expected images ({', '.join(IMAGE_SUFFIXES)}) in {mei!r}, found none")
     os.makedirs(out, exist_ok=True)
     t0 = time.perf_counter()
     images = {n: _read(os.path.join(mei, n), grey=True) for n in names}
-    masks = {}
-    for n in names:
-        mp = os.path.join(mei, "masks", n)
-        if os.path.isfile(mp):
-            masks[n] = _read(mp, grey=True) > 0
-    dets, dets_board, dets_default = {}, {}, {}
+    masks, mask_made = _board_masks(mei, images, views, cam, pattern, square)
+    dets, dets_board, dets_default, failed = {}, {}, {}, {}
     for n in names:
         say(f"detect {n}")
-        dets[n] = detect_lines(images[n], cam)
-        write_png(os.path.join(out, f"mei_{n[:-4]}_lines.png"), _curves_only(dets[n], images[n].shape))
-        if n in masks:
-            dets_default[n] = detect_lines(images[n], cam, mask=masks[n])
-            dets_board[n] = detect_lines(images[n], cam, mask=masks[n], **BOARD_OPTIONS)
-            write_png(os.path.join(out, f"mei_{n[:-4]}_board.png"), _curves_only(dets_board[n], images[n].shape))
+        try:
+            dets[n] = detect_lines(images[n], cam)
+            if n in masks:
+                dets_default[n] = detect_lines(images[n], cam, mask=masks[n])
+                dets_board[n] = detect_lines(images[n], cam, mask=masks[n], **BOARD_OPTIONS)
+        except CatadioptricError as exc:  # one image the detector cannot read does not stop the report
+            failed[n] = str(exc)
+            for d in (dets, dets_default, dets_board):
+                d.pop(n, None)
+            continue
+        write_png(os.path.join(out, f"mei_{_stem(n)}_lines.png"), _curves_only(dets[n], images[n].shape))
+        if n in dets_board:
+            write_png(os.path.join(out, f"mei_{_stem(n)}_board.png"), _curves_only(dets_board[n], images[n].shape))
+    names = [n for n in names if n in dets]
     # 1. the board's axes against the families found with its mask (default options, and the board's)
     axes = []
     for n in names:
@@ -187,7 +237,7 @@ def run_real(data: str, out: str, *, max_rotation_deg: float | None = None, prog
             static.append(_pose_row(res, [np.eye(3)], f"{a} {b}") | {"prior_deg": prior})
             if prior == max_rotation_deg:
                 ov = pair_overlay(np.full_like(images[a], 96), np.full_like(images[b], 96), res)
-                write_png(os.path.join(out, f"mei_static_{a[:-4]}_{b[:-4]}.png"), ov[::2, ::2])
+                write_png(os.path.join(out, f"mei_static_{_stem(a)}_{_stem(b)}.png"), ov[::2, ::2])
     # 3. the board's motion, with its masks
     board = []
     with_ext = [n for n in names if n in views and n in dets_board]
@@ -201,18 +251,19 @@ def run_real(data: str, out: str, *, max_rotation_deg: float | None = None, prog
             continue
         board.append(_pose_row(res, truths, f"{a} {b}"))
     # 4. the board's absolute pose
-    absolute = _absolute(images, masks, views, cam, out, say)
-    # 5. the OCamCalib room
-    room = _room(os.path.join(data, "ocamcalib"), out, say)
+    absolute = _absolute(images, masks, views, cam, (pattern, square), say)
+    # 5. the OCamCalib room(s)
+    rooms = _rooms(os.path.join(data, "ocamcalib"), out, say)
     return {"format": "catadioptric-real-report/1", "data": data, "camera": cam.to_dict(),
             "max_rotation_deg": max_rotation_deg, "board_axes": axes, "static_pairs": static, "board_pairs": board,
-            "absolute_pose": absolute, "ocamcalib_room": room,
+            "absolute_pose": absolute, "ocamcalib_rooms": rooms, "board": {"pattern": list(pattern), "square": square},
+            "masks_made": mask_made, "failed_detections": failed,
             "detections": {n: {"lines": len(d), "families": len(d.families), "annulus": list(d.annulus or []),
                                "seconds": d.seconds.get("total")} for n, d in dets.items()},
             "seconds": time.perf_counter() - t0}
 
 
-def _absolute(images, masks, views, cam, out, say) -> list:
+def _absolute(images, masks, views, cam, board, say) -> list:
     """The board's pose by each corner detector, refined and as the paper computes it (rotation
     from the two families' directions, translation from the lines), against OpenCV's extrinsics.
     OpenCV's SB corners are the ones its calibration used: through the same model, the refined pose
@@ -231,13 +282,14 @@ def _absolute(images, masks, views, cam, out, say) -> list:
         for method in ("sb", "classic", "rectified"):
             say(f"absolute pose {n} ({method} corners)")
             try:
-                bp = chessboard_pose(images[n], cam, pattern=(8, 6), square=0.042, mask=masks.get(n), method=method)
+                bp = chessboard_pose(images[n], cam, pattern=board[0], square=board[1], mask=masks.get(n),
+                                     method=method)
             except CatadioptricError as exc:
                 rows.append({"image": n, "corners": method, "failed": str(exc)})
                 continue
             row = {"image": n, "corners": method}
             for what, R, t in (("refined", bp.R, bp.t), ("lines", bp.R_lines, bp.t_lines)):
-                c = compare_board_poses(R, t, R_cv, t_cv, (8, 6), 0.042)
+                c = compare_board_poses(R, t, R_cv, t_cv, *board)
                 row[what] = {"rotation_error_deg": c["rotation_error_deg"], "symmetry": c["symmetry"],
                              "centre_error_m": c["centre_error_m"], "distance_m": c["centre_distance_m"],
                              "centre_error_rel": c["centre_error_relative"]}
@@ -245,31 +297,41 @@ def _absolute(images, masks, views, cam, out, say) -> list:
     return rows
 
 
-def _room(folder, out, say) -> dict | None:
+def _rooms(folder, out, say) -> list:
+    """Each photograph of the OCamCalib folder (its ``calib_results.txt``): its three dominant
+    families and their pairwise angles; an overlay per photograph."""
     from ..detect import detect_lines
     from ..detect.overlay import overlay_image
     from ..detect.report import write_png
     from ..formats import load_camera
 
     calib = os.path.join(folder, "calib_results.txt")
-    photo = os.path.join(folder, "example.jpg")
-    if not (os.path.isfile(calib) and os.path.isfile(photo)):
-        return None
-    say("detect the OCamCalib room")
+    if not os.path.isfile(calib):
+        return []
     cam = load_camera(calib)
-    img = _read(photo)
-    det = detect_lines(img, cam)
-    write_png(os.path.join(out, "ocamcalib_room.png"), overlay_image(img, det, scale=1))
-    fams = sorted(range(len(det.families)), key=lambda f: -len(det.families[f].lines))[:3]
-    S = np.array([det.families[f].direction for f in fams]).reshape(-1, 3)
-    pairs = []
-    for i, j in combinations(range(len(fams)), 2):
-        a = float(np.degrees(np.arccos(np.clip(abs(S[i] @ S[j]), 0.0, 1.0))))
-        pairs.append({"families": [fams[i], fams[j]], "angle_deg": a, "off_orthogonal_deg": 90.0 - a})
-    return {"families": [{"family": f, "lines": len(det.families[f].lines),
-                          "direction": det.families[f].direction.tolist()} for f in fams],
-            "pairs": pairs, "lines": len(det), "all_families": len(det.families),
-            "annulus": list(det.annulus or []), "seconds": det.seconds.get("total")}
+    rows = []
+    for n in image_names(folder):
+        say(f"detect the OCamCalib photograph {n}")
+        img = _read(os.path.join(folder, n))
+        try:
+            det = detect_lines(img, cam)
+        except CatadioptricError as exc:
+            rows.append({"image": n, "failed": str(exc)})
+            continue
+        overlay = f"ocamcalib_{_stem(n)}.png"
+        write_png(os.path.join(out, overlay), overlay_image(img, det, scale=1))
+        fams = sorted(range(len(det.families)), key=lambda f: -len(det.families[f].lines))[:3]
+        S = np.array([det.families[f].direction for f in fams]).reshape(-1, 3)
+        pairs = []
+        for i, j in combinations(range(len(fams)), 2):
+            a = float(np.degrees(np.arccos(np.clip(abs(S[i] @ S[j]), 0.0, 1.0))))
+            pairs.append({"families": [fams[i], fams[j]], "angle_deg": a, "off_orthogonal_deg": 90.0 - a})
+        rows.append({"image": n, "overlay": overlay,
+                     "families": [{"family": f, "lines": len(det.families[f].lines),
+                                   "direction": det.families[f].direction.tolist()} for f in fams],
+                     "pairs": pairs, "lines": len(det), "all_families": len(det.families),
+                     "annulus": list(det.annulus or []), "seconds": det.seconds.get("total")})
+    return rows
 
 
 def _f(x, nd=3):
@@ -285,6 +347,10 @@ def real_markdown(res: dict, command: str) -> str:
          "the photograph (white circles).", ""]
     if res["max_rotation_deg"] is not None:
         L += [f"Prior: the views turn by at most {res['max_rotation_deg']} degrees.", ""]
+    if res.get("masks_made"):
+        L += [f"Board masks made from OpenCV's extrinsics (no `masks/` file): {', '.join(res['masks_made'])}.", ""]
+    for n, why in res.get("failed_detections", {}).items():
+        L += [f"Detection failed on {n}: {why}", ""]
     opts = ", ".join(f"{k} {v:g}" for k, v in BOARD_OPTIONS.items())
     L += ["## The board's axes against the families detected with its mask", "",
           f"The board's lines are detected with `{opts}` (`BOARD_OPTIONS`; the board pairs below use these "
@@ -337,18 +403,19 @@ def real_markdown(res: dict, command: str) -> str:
             f, g = r["refined"], r["lines"]
             L.append(f"| {r['image']} | {r['corners']} | {f['rotation_error_deg']:.3f} | {100 * f['centre_error_rel']:.2f} % "
                      f"| {g['rotation_error_deg']:.3f} | {100 * g['centre_error_rel']:.2f} % | {f['symmetry']} |")
-    room = res["ocamcalib_room"]
-    if room:
-        L += ["", "## The OCamCalib room: its three dominant families", "",
-              f"{room['lines']} lines, {room['all_families']} families; the three with most lines:", "",
+    for room in res["ocamcalib_rooms"]:
+        L += ["", f"## The OCamCalib room ({room['image']}): its three dominant families", ""]
+        if "failed" in room:
+            L += [f"failed: {room['failed']}"]
+            continue
+        L += [f"{room['lines']} lines, {room['all_families']} families; the three with most lines:", "",
               "| families | angle (deg) | off orthogonal (deg) |", "|---|---|---|"]
         L += [f"| {p['families'][0]} & {p['families'][1]} | {p['angle_deg']:.2f} | {p['off_orthogonal_deg']:.2f} |"
               for p in room["pairs"]]
-        L += ["", "![room](ocamcalib_room.png)"]
+        L += ["", f"![{_stem(room['image'])}]({room['overlay']})"]
     L += ["", "## Overlays", ""]
     for n in sorted(res["detections"]):
-        stem = n[:-4]
-        L.append(f"![{stem}](mei_{stem}_lines.png)")
+        L.append(f"![{_stem(n)}](mei_{_stem(n)}_lines.png)")
     return "\n".join(L) + "\n"
 
 
