@@ -94,7 +94,7 @@ def test_an_ambiguous_answers_rivals_are_estimates_too():
     each a different answer, are refined as the best is: each carries a covariance, and those that are
     the board's motion up to a symmetry lie within 4 of their own deviations of it (the assignment's
     rotation from the directions alone was left before)."""
-    from catadioptric.pose.relative import _REFINED_RIVALS
+    from catadioptric.pose.unlabelled import _REFINED_RIVALS
 
     views, Rs = _board_views(noise_px=1.0)
     truths = _symmetric_truths(*Rs)
@@ -123,7 +123,7 @@ def test_the_lines_in_order_never_decide_alone():
     from scipy.spatial.transform import Rotation
 
     from catadioptric.pose.matching import LineMatch
-    from catadioptric.pose.relative import _margin_unordered
+    from catadioptric.pose.unlabelled import _margin_unordered
 
     half = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix()
     near = Rotation.from_rotvec([0.0, 0.0, 0.01]).as_matrix()

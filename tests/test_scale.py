@@ -103,7 +103,7 @@ def test_a_gap_with_the_length_unknown_keeps_the_far_fit(monkeypatch):
     assert fit.far_gap == 1e6 and fit.scale_std > 40.0 > scale_mod.MAX_SCALE_STD
     assert fit.scale_held and np.array_equal(fit.R, held.R)
     real = scale_mod.refine_far_or_free
-    monkeypatch.setattr("catadioptric.pose.relative.refine_far_or_free",
+    monkeypatch.setattr("catadioptric.pose.labelled.refine_far_or_free",
                         lambda data, start, options: real(data, start, replace(options, max_scale_std=1e3)))
     fit = relative_pose(va, vb).candidates[0].fit
     (_, free, _, _), _ = calls[-2:]
@@ -192,7 +192,7 @@ def test_a_start_far_too_long_keeps_every_line_in_front_of_both_views(monkeypatc
     cannot explain a single pixel of it (the line is lost in that view). The start places such a
     line in its plane through A's centre on the side A's rays see instead: every line starts in
     front of both views, near its pixels in both."""
-    import catadioptric.pose.relative as relative_mod
+    import catadioptric.pose.labelled as relative_mod
     from catadioptric.pose.translation import ray_depths
 
     calls = _spy(monkeypatch)

@@ -18,8 +18,10 @@ between two views ``x_B = R x_A + t`` (mirror frames). Lines are Pluecker ``(s, 
 | `family_matches` | `matching.py` | each view's families (unmatched) | the assignments of B's families to A's a rotation allows |
 | `match_lines` | `matching.py` | a family assignment, each view's lines (unmatched) | lines matched where they meet, direction between the centres |
 | `static_rotation` | `static.py` | each view's families (unmatched), candidate rotations | the rotation of a camera turned in place, from the lines it sees again unchanged, or None |
-| `relative_pose` | `relative.py` | the lines each view sees (matched by id, or not) | R, t, covariance, candidates, ambiguity verdict |
-| `matching_bar` | `relative.py` | the number of family assignments tried without labels | the margin an answer needs |
+| `relative_pose` | `relative.py` (checks, then one of the two below) | the lines each view sees (matched by id, or not) | R, t, covariance, candidates, ambiguity verdict |
+| `labelled_pose` | `labelled.py` | the lines each view sees, matched by id; `PoseOptions` | as `relative_pose` |
+| `unlabelled_pose` | `unlabelled.py` | the lines each view sees, matched by nothing; `PoseOptions` | families and lines matched, then `labelled_pose`; the evidence that decided |
+| `matching_bar` | `unlabelled.py` | the number of family assignments tried without labels | the margin an answer needs |
 | `chessboard_pose` | `chessboard.py` | an image of a chessboard (OpenCV's detector), a central camera | the board's R, t, covariance, its families' directions and vanishing points (the paper's Sec. 5.3; `catadioptric absolute-pose`) |
 | `choose_model` | `select.py` | the exact and the central answer of one pair | the rotation whose covariance promises less |
 
@@ -33,6 +35,7 @@ from .central import CrossingFit, translation_direction_from_crossings
 from .epipolar import EpipolarFit, refine_with_crossings
 from .families import FamilyEstimate, ViewLines, fit_view_families
 from .matching import FamilyMatch, LineMatch, family_matches, match_lines
+from .labelled import PoseOptions, labelled_pose
 from .relative import MATCHING_BARS, Candidate, RelativePose, matching_bar, relative_pose
 from .scale import ScaleOptions, refine_far_or_free
 from .select import ModelChoice, choose_model
@@ -40,6 +43,7 @@ from .rotation import DirectionRotation, refine_rotation, rotation_angle_deg, ro
 from .signs import SignCandidate, sign_candidates
 from .static import StaticRotation, static_rotation
 from .translation import relative_translation_from_lines, translation_from_lines
+from .unlabelled import unlabelled_pose
 
 __all__ = [
     "rotation_from_directions", "rotation_angle_deg", "refine_rotation", "DirectionRotation",
@@ -48,7 +52,7 @@ __all__ = [
     "ScaleOptions", "translation_direction_from_crossings", "CrossingFit",
     "refine_with_crossings", "EpipolarFit",
     "ViewLines", "FamilyEstimate", "fit_view_families", "relative_pose", "RelativePose", "Candidate",
-    "matching_bar", "MATCHING_BARS",
+    "matching_bar", "MATCHING_BARS", "labelled_pose", "unlabelled_pose", "PoseOptions",
     "family_matches", "FamilyMatch", "match_lines", "LineMatch", "choose_model", "ModelChoice",
     "chessboard_pose", "ChessboardPose", "compare_board_poses", "static_rotation", "StaticRotation",
 ]

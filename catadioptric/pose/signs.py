@@ -10,7 +10,7 @@ directions exactly: for two orthogonal families, or an orthogonal triad (any Man
 flipping two directions is a rotation by 180 degrees about the third, and when every family is
 horizontal or vertical the half-turn about the vertical flips all the horizontal ones. The
 directions cannot tell those apart; the caller scores the survivors with the two-view geometry
-of the lines (:mod:`catadioptric.pose.relative`).
+of the lines (:mod:`catadioptric.pose.labelled`).
 """
 from __future__ import annotations
 
