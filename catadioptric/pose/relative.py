@@ -2,29 +2,15 @@
 lines: rotation and, for a non-central rig, metric translation, with covariance and an explicit
 verdict when the answer is ambiguous.
 
-Steps (docs/relative_pose.md):
+The front door, :func:`relative_pose`: it checks its arguments (:class:`PoseOptions`) and sends
+the views to one of two paths (docs/relative_pose.md):
 
-1. each view fits its families (:func:`~catadioptric.pose.families.fit_view_families`): a
-   direction with covariance per family, and each line (a 3-D line for a non-central rig, an
-   interpretation plane for a central one);
-2. the families seen in both views give rotation candidates, one per sign pattern that a
-   rotation can fit (:func:`~catadioptric.pose.signs.sign_candidates`); with the ends matched
-   (``ends``) the signs are known and there is one candidate;
-3. every candidate: the direction between the views' centres from the points where lines of
-   two families meet (:func:`~catadioptric.pose.central.translation_direction_from_crossings`),
-   then the rotation and that direction refined together from the directions and the meeting
-   rays (:func:`~catadioptric.pose.epipolar.refine_with_crossings`). Central rigs: that is the
-   estimate. Non-central rigs: the best candidates are then refined with their metric
-   translation, directions and lines on the pixels of both views
-   (:func:`~catadioptric.pose.bundle.refine_two_view`), starting there, with the scene held far
-   unless the pixels fix its scale (:func:`~catadioptric.pose.scale.refine_far_or_free`);
-4. the candidates are ranked by that two-view cost. The best is the answer when its margin
-   over the second (a log-likelihood ratio, chi-square units) is at least ``decisive``;
-   otherwise the result is ``ambiguous`` and lists every candidate.
-
-Steps 1-4 are :mod:`~catadioptric.pose.labelled` (lines matched across the views by ``line_id``);
-views whose lines carry no ``line_id`` first have their families and lines matched by
-:mod:`~catadioptric.pose.unlabelled` (docs/relative_pose.md, "Without labels").
+* lines matched across the views by ``line_id``: :func:`~catadioptric.pose.labelled.labelled_pose`
+  (each view's families, the rotation candidates their signs allow, where lines meet, the
+  refinement on the pixels of both views, the verdict; its module docstring lists the steps);
+* lines matched by nothing (each image's own detections):
+  :func:`~catadioptric.pose.unlabelled.unlabelled_pose` matches the families and lines first
+  ("Without labels"), then takes the labelled path.
 """
 from __future__ import annotations
 
