@@ -15,7 +15,7 @@ from .._checks import CatadioptricError
 from .central import Parallax
 from .families import ViewLines, fit_view_families, is_central
 from .labelled import SAME_ANSWER_DEG, Candidate, PoseOptions, RelativePose, labelled_pose
-from .matching import family_matches, match_lines
+from . import matching
 from .rotation import rotation_angle_deg
 from .static import static_rotation
 
@@ -68,7 +68,7 @@ def unlabelled_pose(view_a: ViewLines, view_b: ViewLines, opts: PoseOptions) -> 
     sigmas = [e.sigma for e in list(ea.values()) + list(eb.values()) if np.isfinite(e.sigma)]
     sigma = pixel_sigma if pixel_sigma is not None else max(float(np.median(sigmas)) if sigmas else f_scale,
                                                             0.1 * f_scale)
-    matches = family_matches(ea, eb, max_rotation_deg=max_rotation_deg)
+    matches = matching.family_matches(ea, eb, max_rotation_deg=max_rotation_deg)
     if not matches:
         raise CatadioptricError(f"views: no assignment of the {len(eb)} families of B to the {len(ea)} of A fits a "
                                 "rotation" + ("" if max_rotation_deg is None else
@@ -76,10 +76,10 @@ def unlabelled_pose(view_a: ViewLines, view_b: ViewLines, opts: PoseOptions) -> 
     seen = view_a.appearance is not None and view_b.appearance is not None
     scored, geometry = [], {}
     for m in matches:
-        lm = match_lines(view_a, view_b, ea, eb, m, sigma_px=sigma, seed=seed)
+        lm = matching.match_lines(view_a, view_b, ea, eb, m, sigma_px=sigma, seed=seed)
         scored.append((m.cost + lm.cost, m, lm))
         if seen:  # the same assignment scored by the geometry alone (the evidence reported with the answer)
-            geometry[id(m)] = match_lines(view_a, view_b, ea, eb, m, sigma_px=sigma, seed=seed, appearance=False)
+            geometry[id(m)] = matching.match_lines(view_a, view_b, ea, eb, m, sigma_px=sigma, seed=seed, appearance=False)
     scored.sort(key=lambda x: x[0] if np.isfinite(x[0]) else np.inf)
     best_score, best, lines = scored[0]
     others = [s for s, m, _ in scored[1:] if rotation_angle_deg(m.R @ best.R.T) > SAME_ANSWER_DEG]
