@@ -101,6 +101,27 @@ def test_the_report_and_overlays_are_written(report):
     assert (out / "ocamcalib_example.png").stat().st_size > 0
 
 
+def test_an_image_the_detector_cannot_use_is_reported_not_fatal(tmp_path):
+    """A folder of other images (the held-back ones): an image of another size than the calibration's
+    is reported with the detector's one-line reason, and the report is still written."""
+    import numpy as np
+
+    from catadioptric.detect.report import write_png
+
+    mei = tmp_path / "data" / "mei"
+    mei.mkdir(parents=True)
+    for f in ("mei_omnidir.yaml", "board_extrinsics.json"):
+        os.symlink(MEI / f, mei / f)
+    write_png(str(mei / "img_para_001.png"), np.zeros((64, 80), np.uint8))
+    out = tmp_path / "report"
+    assert main(["validate", "real", "--data", str(tmp_path / "data"), "--out", str(out), "--no-progress"]) == 0
+    res = json.loads((out / "report.json").read_text())
+    assert res["failed_detections"] == {"img_para_001.png": "image: expected 1280x1024 pixels (the camera's image "
+                                                            "size), got 80x64"}
+    assert not res["board_axes"] and not res["static_pairs"] and not res["ocamcalib_rooms"]
+    assert "Detection failed on img_para_001.png: image: expected 1280x1024" in (out / "report.md").read_text()
+
+
 def test_relative_pose_of_the_board_with_the_chessboard_preset(tmp_path):
     """The command a user runs for a board's motion (docs/cameras.md): both images' board masks and
     ``--preset chessboard``. The far board's pair is ambiguous (exit code 3), its first answer the

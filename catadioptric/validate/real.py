@@ -38,8 +38,7 @@ import numpy as np
 from .._checks import CatadioptricError
 from ..detect.detector import PRESETS
 
-__all__ = ["run_real", "real_markdown", "board_symmetries", "angle_to_nearest", "register_real", "BOARD_OPTIONS",
-           "image_names"]
+__all__ = ["run_real", "real_markdown", "board_symmetries", "angle_to_nearest", "register_real", "BOARD_OPTIONS"]
 
 #: the prior of the static pairs' second run: a camera on a tripod turns by at most this (degrees)
 STATIC_PRIOR_DEG = 30.0
@@ -93,7 +92,7 @@ def _read(path, grey=False):
     return img
 
 
-def image_names(folder) -> list[str]:
+def _image_names(folder) -> list[str]:
     """The images of ``folder`` (by suffix, :data:`IMAGE_SUFFIXES`), sorted by name."""
     return sorted(f for f in os.listdir(folder)
                   if f.lower().endswith(IMAGE_SUFFIXES) and os.path.isfile(os.path.join(folder, f)))
@@ -185,7 +184,7 @@ def run_real(data: str, out: str, *, max_rotation_deg: float | None = None, prog
     ext = json.load(open(os.path.join(mei, "board_extrinsics.json")))
     views = ext["views"]
     pattern, square = tuple(ext.get("pattern", BOARD_PATTERN)), float(ext.get("square", BOARD_SQUARE))
-    names = image_names(mei)
+    names = _image_names(mei)
     if not names:
         raise CatadioptricError(f"--data: expected images ({', '.join(IMAGE_SUFFIXES)}) in {mei!r}, found none")
     os.makedirs(out, exist_ok=True)
@@ -310,7 +309,7 @@ def _rooms(folder, out, say) -> list:
         return []
     cam = load_camera(calib)
     rows = []
-    for n in image_names(folder):
+    for n in _image_names(folder):
         say(f"detect the OCamCalib photograph {n}")
         img = _read(os.path.join(folder, n))
         try:
