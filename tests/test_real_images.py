@@ -99,6 +99,10 @@ def test_the_report_and_overlays_are_written(report):
     for f in IMAGES:
         assert (out / f"mei_{f[:-4]}_lines.png").stat().st_size > 0
     assert (out / "ocamcalib_example.png").stat().st_size > 0
+    # every picture the report shows is written: the lines, the board's lines, the pair, the room
+    shown = [line.split("](", 1)[1].rstrip(")") for line in md.splitlines() if line.startswith("![")]
+    assert {f"mei_{IMAGES[0][:-4]}_board.png", f"mei_static_{IMAGES[0][:-4]}_{IMAGES[1][:-4]}.png"} <= set(shown)
+    assert all((out / f).stat().st_size > 0 for f in shown), shown
 
 
 def test_an_image_the_detector_cannot_use_is_reported_not_fatal(tmp_path):

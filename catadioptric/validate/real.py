@@ -236,7 +236,8 @@ def run_real(data: str, out: str, *, max_rotation_deg: float | None = None, prog
             static.append(_pose_row(res, [np.eye(3)], f"{a} {b}") | {"prior_deg": prior})
             if prior == max_rotation_deg:
                 ov = pair_overlay(np.full_like(images[a], 96), np.full_like(images[b], 96), res)
-                write_png(os.path.join(out, f"mei_static_{_stem(a)}_{_stem(b)}.png"), ov[::2, ::2])
+                static[-1]["overlay"] = f"mei_static_{_stem(a)}_{_stem(b)}.png"
+                write_png(os.path.join(out, static[-1]["overlay"]), ov[::2, ::2])
     # 3. the board's motion, with its masks
     board = []
     with_ext = [n for n in names if n in views and n in dets_board]
@@ -358,6 +359,10 @@ def real_markdown(res: dict, command: str) -> str:
           "with the defaults (deg) |", "|---|---|---|---|---|---|"]
     L += [f"| {r['image']} | {r['axis']} | {_f(r['angle_deg'])} | {r['family_lines']} | {r['families']} | "
           f"{_f(r.get('default_angle_deg'))} |" for r in res["board_axes"]]
+    boards = sorted({r["image"] for r in res["board_axes"]})
+    if boards:
+        L += ["", "The board's lines, coloured by family, with its families' vanishing points (circles):", ""]
+        L += [f"![{_stem(n)} board](mei_{_stem(n)}_board.png)" for n in boards]
     L += ["", "## The static camera (no mask; the truth is the identity)", "",
           "| pair | prior (deg) | turn (deg) | verdict (the matching's margin; what decided) | families / lines matched | "
           "translation | "
@@ -375,6 +380,12 @@ def real_markdown(res: dict, command: str) -> str:
         cands = ", ".join(f"{c['turn_deg']:.1f}" for c in r["candidates"][:4])
         L.append(f"| {r['pair']} | {prior} | {r['error_deg']:.3f} | {verdict} | {r['families']} / {r['lines_matched']} | "
                  f"{tr} | {cands} |")
+    shown = [r for r in res["static_pairs"] if r.get("overlay")]
+    if shown:
+        L += ["", "Each pair as first in the table (no prior, or `--max-rotation`'s): each family matched across "
+                  "the two images in one colour, its vanishing points as rings; lines of no matched family in grey:",
+              ""]
+        L += [f"![{r['pair']}]({r['overlay']})" for r in shown]
     L += ["", "## The board's motion (board masks; truth `R_j R_i^T` up to the board's line symmetries)", "",
           "| pair | error to the nearest symmetric truth (deg) | which | verdict (margin) | candidates: error (deg) / "
           "symmetry |", "|---|---|---|---|---|"]
