@@ -41,8 +41,8 @@ from .scale import ScaleOptions, refine_far_or_free, scale_by_search
 from .signs import sign_candidates
 from .translation import ray_depths, triangulate_line
 
-__all__ = ["Candidate", "RelativePose", "PoseOptions", "labelled_pose", "MIN_MEETINGS", "WEAK_BAR_PER_PIXEL",
-           "SAME_ANSWER_DEG"]
+__all__ = ["Candidate", "RelativePose", "PoseOptions", "labelled_pose", "with_floor", "MIN_MEETINGS",
+           "WEAK_BAR_PER_PIXEL", "SAME_ANSWER_DEG"]
 
 _FITS = 4.0  # a refinement fits the pixels when its robust cost is at most this per pixel (about 2 sigma)
 #: a central pair shows no parallax when at least this many lines, and at least as many as the lines a
@@ -88,6 +88,7 @@ class PoseOptions:
     max_rotation_deg: float | None = None
     model_error_px: float = 0.0
     decisive_matching: float | None = None
+    direction_floor_deg: float = 0.0
 
     def checked(self) -> PoseOptions:
         """These options with each number checked (a one-line error naming a bad one) and made a float."""
@@ -100,7 +101,10 @@ class PoseOptions:
         model_error_px = as_scalar(self.model_error_px, "model_error_px")
         if model_error_px < 0:
             raise CatadioptricError(f"model_error_px: expected a non-negative number of pixels, got {model_error_px}")
-        return replace(self, model_error_px=model_error_px, **ok)
+        floor = as_scalar(self.direction_floor_deg, "direction_floor_deg")
+        if not 0.0 <= floor < 90.0:
+            raise CatadioptricError(f"direction_floor_deg: expected an angle in [0, 90) degrees, got {floor}")
+        return replace(self, model_error_px=model_error_px, direction_floor_deg=floor, **ok)
 
 
 @dataclass
@@ -358,6 +362,16 @@ def _within_prior(cands, max_rotation_deg, what):
                                 f"candidates turn by {angles})")
     return kept
 
+def with_floor(d, cov, floor_deg: float):
+    """Covariances ``cov (F, 3, 3)`` of unit directions ``d (F, 3)`` with an error of ``floor_deg``
+    degrees (standard deviation, any way across each direction) added: what a detector's lines
+    carry beyond their fitted covariance. ``cov`` itself when the floor is 0."""
+    if floor_deg == 0.0:
+        return cov
+    d = np.asarray(d, float).reshape(-1, 3)
+    return cov + np.radians(floor_deg) ** 2 * (np.eye(3)[None] - d[:, :, None] * d[:, None, :])
+
+
 def labelled_pose(view_a: ViewLines, view_b: ViewLines, ends: dict | None, opts: PoseOptions,
                   fitted: tuple | None = None) -> RelativePose:
     """The relative pose from lines matched across the views by ``line_id`` (steps 1-4 of the module
@@ -399,8 +413,8 @@ def labelled_pose(view_a: ViewLines, view_b: ViewLines, ends: dict | None, opts:
             + ("; ".join(notes) if notes else "none") + ")")
     a = np.array([ea[k].direction for k in keys])
     b = np.array([eb[k].direction for k in keys])
-    Ca = np.array([ea[k].cov for k in keys])
-    Cb = np.array([eb[k].cov for k in keys])
+    Ca = with_floor(a, np.array([ea[k].cov for k in keys]), opts.direction_floor_deg)
+    Cb = with_floor(b, np.array([eb[k].cov for k in keys]), opts.direction_floor_deg)
     sigmas = [e.sigma for e in list(ea.values()) + list(eb.values()) if np.isfinite(e.sigma)]
     sigma_est = float(np.median(sigmas)) if sigmas else f_scale
     # the robust losses' scale: the pixel noise, but not below a tenth of f_scale (exact pixels would
