@@ -147,7 +147,6 @@ def pose_from_detections(det_a, det_b, *, min_pixels: int = 30, max_rotation_deg
 
 
 def _pose_from_detections(det_a, det_b, min_pixels, max_rotation_deg, decisive, decisive_matching, seed, joint):
-    from .detect.detector import DEFAULTS
     from .detect.joint_families import joint_families, with_families
     from .pose import relative_pose, rotation_angle_deg
 
@@ -163,11 +162,8 @@ def _pose_from_detections(det_a, det_b, min_pixels, max_rotation_deg, decisive, 
                     f"image {name}: expected at least 2 families of parallel lines, found {len(d.families)} "
                     f"({len(d)} lines detected, {int(np.sum(d.family >= 0))} in a family, {len(v.uv)} of them "
                     f"with {min_pixels} pixels or more)")
-        # the detector grants each line an angular error beyond its covariance (its own biases): the
-        # families' directions carry it too (docs/relative_pose.md, "Without labels")
-        floor = max(float(d.options.get("angle_floor_deg", DEFAULTS["angle_floor_deg"])) for d in dets)
         return relative_pose(views[0], views[1], seed=seed, decisive=decisive, max_rotation_deg=max_rotation_deg,
-                             decisive_matching=decisive_matching, direction_floor_deg=floor)
+                             decisive_matching=decisive_matching)
 
     pose = estimate(dets)
     fmap = _family_map(pose)

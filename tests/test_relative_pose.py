@@ -207,7 +207,7 @@ def test_a_direction_floor_is_an_error_across_each_family_s_direction():
     central rig leaves exact pixels' rotation within 1 % of the floor of the truth (the meeting rays,
     weighted more against the directions, hold it: 0.0012 deg measured at 0.5 deg) and its covariance
     grown to the meeting rays' own; a bad floor is a one-line error."""
-    from catadioptric.pose.labelled import with_floor
+    from catadioptric.pose.rotation import with_floor
 
     d = np.array([[0.0, 0.0, 1.0], [0.6, 0.8, 0.0]])
     C = np.stack([np.diag([1e-6, 2e-6, 0.0]), np.zeros((3, 3))])

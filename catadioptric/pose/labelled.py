@@ -36,13 +36,13 @@ from .central import (CrossingFit, Parallax, meeting_rays, parallax, residual_we
                       translation_direction_from_crossings)
 from .epipolar import refine_with_crossings
 from .families import FamilyEstimate, ViewLines, fit_view_families, is_central
-from .rotation import rotation_angle_deg
+from .rotation import rotation_angle_deg, with_floor
 from .scale import ScaleOptions, refine_far_or_free, scale_by_search
 from .signs import sign_candidates
 from .translation import ray_depths, triangulate_line
 
-__all__ = ["Candidate", "RelativePose", "PoseOptions", "labelled_pose", "with_floor", "MIN_MEETINGS",
-           "WEAK_BAR_PER_PIXEL", "SAME_ANSWER_DEG"]
+__all__ = ["Candidate", "RelativePose", "PoseOptions", "labelled_pose", "MIN_MEETINGS", "WEAK_BAR_PER_PIXEL",
+           "SAME_ANSWER_DEG"]
 
 _FITS = 4.0  # a refinement fits the pixels when its robust cost is at most this per pixel (about 2 sigma)
 #: a central pair shows no parallax when at least this many lines, and at least as many as the lines a
@@ -361,16 +361,6 @@ def _within_prior(cands, max_rotation_deg, what):
         raise CatadioptricError(f"max_rotation_deg: no {what} turns by at most {max_rotation_deg} degrees (the "
                                 f"candidates turn by {angles})")
     return kept
-
-def with_floor(d, cov, floor_deg: float):
-    """Covariances ``cov (F, 3, 3)`` of unit directions ``d (F, 3)`` with an error of ``floor_deg``
-    degrees (standard deviation, any way across each direction) added: what a detector's lines
-    carry beyond their fitted covariance. ``cov`` itself when the floor is 0."""
-    if floor_deg == 0.0:
-        return cov
-    d = np.asarray(d, float).reshape(-1, 3)
-    return cov + np.radians(floor_deg) ** 2 * (np.eye(3)[None] - d[:, :, None] * d[:, None, :])
-
 
 def labelled_pose(view_a: ViewLines, view_b: ViewLines, ends: dict | None, opts: PoseOptions,
                   fitted: tuple | None = None) -> RelativePose:

@@ -53,8 +53,9 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
     matchings alone, which both must reach the bar (docs/relative_pose.md, "The bar on the matching").
     ``direction_floor_deg``: an error (degrees, standard deviation) added across each family's
     direction in both views before the rotation is fitted to them, for lines whose fitted planes
-    do not carry all their error (a detector's: :func:`catadioptric.twoview.pose_from_detections`
-    passes its ``angle_floor_deg``); 0 for lines whose pixels' noise is all there is. Raises :class:`CatadioptricError` naming the
+    do not carry all their error; lines matched by nothing (a detector's) get at least
+    :data:`~catadioptric.pose.matching.FAMILY_FLOOR_DEG` (0.3), as their matching does; 0 (the
+    default) for labelled lines, whose pixels' noise is all there is. Raises :class:`CatadioptricError` naming the
     cause when fewer than ``min_families`` families are seen in both views, or when no candidate
     is within ``max_rotation_deg``.
     """

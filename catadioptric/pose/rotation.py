@@ -15,7 +15,7 @@ from scipy.spatial.transform import Rotation
 from .._checks import CatadioptricError, as_float_array, as_rotation
 from .._numeric import cross
 
-__all__ = ["rotation_from_directions", "rotation_angle_deg", "DirectionRotation", "refine_rotation",
+__all__ = ["with_floor", "rotation_from_directions", "rotation_angle_deg", "DirectionRotation", "refine_rotation",
            "exp_rotation", "skew", "information"]
 
 
@@ -105,6 +105,17 @@ class DirectionRotation:
     chi2: np.ndarray
     weights: np.ndarray
     cost: float
+
+
+def with_floor(d, cov, floor_deg: float):
+    """Covariances ``cov (..., 3, 3)`` of unit directions ``d (..., 3)`` with an error of
+    ``floor_deg`` degrees (standard deviation, any way across each direction) added: what a
+    detected family's lines carry beyond their fitted covariance (the detector's biases, which its
+    lines share). ``cov`` itself when the floor is 0."""
+    if floor_deg == 0.0:
+        return cov
+    d = np.asarray(d, float)
+    return cov + np.radians(floor_deg) ** 2 * (np.eye(3) - d[..., :, None] * d[..., None, :])
 
 
 def information(b, C):
