@@ -201,33 +201,6 @@ def test_a_model_error_is_an_error_every_pixel_of_a_line_shares():
         assert np.trace(e1[k].cov) > np.trace(e0[k].cov) + 0.5 * eps**2 / len(n)
 
 
-def test_a_direction_floor_is_an_error_across_each_family_s_direction():
-    """``direction_floor_deg`` adds ``f^2 (I - d d')`` to each family's direction covariance before the
-    rotation is fitted: 0 changes nothing (the labelled path's default, to the bit); a floor on a
-    central rig leaves exact pixels' rotation within 1 % of the floor of the truth (the meeting rays,
-    weighted more against the directions, hold it: 0.0012 deg measured at 0.5 deg) and its covariance
-    grown to the meeting rays' own; a bad floor is a one-line error."""
-    from catadioptric.pose.rotation import with_floor
-
-    d = np.array([[0.0, 0.0, 1.0], [0.6, 0.8, 0.0]])
-    C = np.stack([np.diag([1e-6, 2e-6, 0.0]), np.zeros((3, 3))])
-    f = np.radians(0.5)
-    got = with_floor(d, C, 0.5)
-    assert np.allclose(got - C, f**2 * (np.eye(3) - d[:, :, None] * d[:, None, :]), rtol=1e-12, atol=0)
-    assert with_floor(d, C, 0.0) is C
-    va, vb, R_gt, _ = _pair("hyperboloid_central")
-    r0, r1 = relative_pose(va, vb), relative_pose(va, vb, direction_floor_deg=0.0)
-    assert np.array_equal(r0.R, r1.R) and np.array_equal(r0.cov, r1.cov, equal_nan=True)
-    r2 = relative_pose(va, vb, direction_floor_deg=0.5)
-    assert rotation_angle_deg(r2.R @ R_gt.T) < 0.01 * 0.5
-    # exact pixels: the directions alone would fix the rotation to rounding (1e-31), the floor leaves the
-    # meeting rays to fix it (their own floor, a tenth of the inlier threshold)
-    assert np.trace(r2.cov[:3, :3]) > 1e6 * np.trace(r0.cov[:3, :3])
-    with pytest.raises(cd.CatadioptricError, match=r"direction_floor_deg: expected an angle in \[0, 90\) degrees, "
-                                                   r"got -0.1"):
-        relative_pose(va, vb, direction_floor_deg=-0.1)
-
-
 def test_without_labels_families_and_lines_are_matched_by_the_geometry():
     """The lines of each view with their own family keys and no line ids (as detected in an image):
     the families are assigned across the views and the lines matched where they meet; the

@@ -36,7 +36,7 @@ from .central import (CrossingFit, Parallax, meeting_rays, parallax, residual_we
                       translation_direction_from_crossings)
 from .epipolar import refine_with_crossings
 from .families import FamilyEstimate, ViewLines, fit_view_families, is_central
-from .rotation import rotation_angle_deg, with_floor
+from .rotation import rotation_angle_deg
 from .scale import ScaleOptions, refine_far_or_free, scale_by_search
 from .signs import sign_candidates
 from .translation import ray_depths, triangulate_line
@@ -88,7 +88,6 @@ class PoseOptions:
     max_rotation_deg: float | None = None
     model_error_px: float = 0.0
     decisive_matching: float | None = None
-    direction_floor_deg: float = 0.0
 
     def checked(self) -> PoseOptions:
         """These options with each number checked (a one-line error naming a bad one) and made a float."""
@@ -101,10 +100,7 @@ class PoseOptions:
         model_error_px = as_scalar(self.model_error_px, "model_error_px")
         if model_error_px < 0:
             raise CatadioptricError(f"model_error_px: expected a non-negative number of pixels, got {model_error_px}")
-        floor = as_scalar(self.direction_floor_deg, "direction_floor_deg")
-        if not 0.0 <= floor < 90.0:
-            raise CatadioptricError(f"direction_floor_deg: expected an angle in [0, 90) degrees, got {floor}")
-        return replace(self, model_error_px=model_error_px, direction_floor_deg=floor, **ok)
+        return replace(self, model_error_px=model_error_px, **ok)
 
 
 @dataclass
@@ -403,8 +399,8 @@ def labelled_pose(view_a: ViewLines, view_b: ViewLines, ends: dict | None, opts:
             + ("; ".join(notes) if notes else "none") + ")")
     a = np.array([ea[k].direction for k in keys])
     b = np.array([eb[k].direction for k in keys])
-    Ca = with_floor(a, np.array([ea[k].cov for k in keys]), opts.direction_floor_deg)
-    Cb = with_floor(b, np.array([eb[k].cov for k in keys]), opts.direction_floor_deg)
+    Ca = np.array([ea[k].cov for k in keys])
+    Cb = np.array([eb[k].cov for k in keys])
     sigmas = [e.sigma for e in list(ea.values()) + list(eb.values()) if np.isfinite(e.sigma)]
     sigma_est = float(np.median(sigmas)) if sigmas else f_scale
     # the robust losses' scale: the pixel noise, but not below a tenth of f_scale (exact pixels would

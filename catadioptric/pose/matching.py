@@ -41,11 +41,8 @@ from .rotation import refine_rotation, rotation_angle_deg, rotation_from_directi
 __all__ = ["FamilyMatch", "family_matches", "LineMatch", "LinesInOrder", "match_lines", "MIN_CONTRAST",
            "FAMILY_FLOOR_DEG"]
 
-#: the error (degrees) a detected family's direction carries beyond its covariance: its lines share
-#: the detector's biases (on the benchmark's hyperbolic pair p10 one view's vertical family is 0.25
-#: degree off with a standard error of 0.03). The matching adds it to every family's direction
-#: (:func:`family_matches`), and so does the rotation fitted to the matched families
-#: (:func:`~catadioptric.pose.unlabelled.unlabelled_pose`)
+#: the error (degrees) :func:`family_matches` adds across every family's direction by default, for
+#: what its covariance leaves out (its docstring)
 FAMILY_FLOOR_DEG = 0.3
 
 #: the least difference of luminance between a line's two sides (grey levels of an 8-bit scale, or

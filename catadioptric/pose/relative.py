@@ -26,8 +26,7 @@ __all__ = ["Candidate", "RelativePose", "relative_pose", "matching_bar", "MATCHI
 def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = None, seed=0, f_scale: float = 1.0,
                   pixel_sigma: float | None = None, decisive: float = 25.0, max_pixels: int | None = 40,
                   min_families: int = 2, max_rotation_deg: float | None = None,
-                  model_error_px: float = 0.0, decisive_matching: float | None = None,
-                  direction_floor_deg: float = 0.0) -> RelativePose:
+                  model_error_px: float = 0.0, decisive_matching: float | None = None) -> RelativePose:
     """The relative pose ``x_B = R x_A + t`` of two views from the lines they see.
 
     ``view_a``, ``view_b``: :class:`ViewLines`. ``ends``: ``{family: (hint_a, hint_b)}``, for
@@ -50,12 +49,7 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
     the more rival assignments, the larger the chance margin: on the relative-pose benchmark and on
     100 held-out pairs, wrong answers won by up to 10.2 units among at most 24 assignments and by up
     to 29.7 among more, counting the smaller of the matching's margin and its margin by the RANSAC's
-    matchings alone, which both must reach the bar (docs/relative_pose.md, "The bar on the matching").
-    ``direction_floor_deg``: an error (degrees, standard deviation) added across each family's
-    direction in both views before the rotation is fitted to them, for lines whose fitted planes
-    do not carry all their error; lines matched by nothing (a detector's) get at least
-    :data:`~catadioptric.pose.matching.FAMILY_FLOOR_DEG` (0.3), as their matching does; 0 (the
-    default) for labelled lines, whose pixels' noise is all there is. Raises :class:`CatadioptricError` naming the
+    matchings alone, which both must reach the bar (docs/relative_pose.md, "The bar on the matching"). Raises :class:`CatadioptricError` naming the
     cause when fewer than ``min_families`` families are seen in both views, or when no candidate
     is within ``max_rotation_deg``.
     """
@@ -65,7 +59,7 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
         raise CatadioptricError(f"view_a, view_b: expected ViewLines, got {type(view_a).__name__} and "
                                 f"{type(view_b).__name__}")
     opts = PoseOptions(seed, f_scale, pixel_sigma, decisive, max_pixels, min_families, max_rotation_deg,
-                       model_error_px, decisive_matching, direction_floor_deg).checked()
+                       model_error_px, decisive_matching).checked()
     if is_central(view_a.cam) != is_central(view_b.cam):
         raise CatadioptricError("view_a, view_b: expected two central or two non-central cameras, got one of each")
     unmatched = all(i is None for i in view_a.line_id) or all(i is None for i in view_b.line_id)

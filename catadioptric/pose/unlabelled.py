@@ -118,10 +118,9 @@ def unlabelled_pose(view_a: ViewLines, view_b: ViewLines, opts: PoseOptions) -> 
         scored.insert(0, scored.pop(static.index))
         best_score, best, lines = scored[0]
     va, vb, ends = _relabelled(view_a, view_b, ea, eb, best, lines)
-    detected = _detected(opts)
     # the labelled path's families are these, B's under A's keys: not fitted again
     fitted = (ea, {a: replace(eb[b], key=a) for b, (a, _) in best.mapping.items()})
-    res = labelled_pose(va, vb, ends, detected, fitted=fitted)
+    res = labelled_pose(va, vb, ends, opts, fitted=fitted)
     res.candidates = [Candidate({str(b): (str(a), int(s)) for b, (a, s) in m.mapping.items()}, m.R,
                                 None if lm.t is None else lm.t, score, m.cost, None, lm) for score, m, lm in scored]
     res.candidates[0] = Candidate(res.candidates[0].signs, res.R, res.t, best_score, best.cost, res.cov, lines)
@@ -156,13 +155,6 @@ def unlabelled_pose(view_a: ViewLines, view_b: ViewLines, opts: PoseOptions) -> 
     res.notes += [f"family {k} of A not used: {v}" for k, v in fail_a.items()]
     res.notes += [f"family {k} of B not used: {v}" for k, v in fail_b.items()]
     return res
-
-def _detected(opts: PoseOptions) -> PoseOptions:
-    """The options of the labelled path for lines matched here: each family's direction carries at
-    least :data:`~catadioptric.pose.matching.FAMILY_FLOOR_DEG` beyond its covariance, as in the
-    matching (lines matched by nothing are a detector's, and share its biases)."""
-    return replace(opts, direction_floor_deg=max(opts.direction_floor_deg, matching.FAMILY_FLOOR_DEG))
-
 
 def _margin_unordered(scored) -> float:
     """The margin of the first of ``scored`` (``[(score, FamilyMatch, LineMatch)]``, best first) over
@@ -201,7 +193,7 @@ def _refine_rivals(res, scored, bar: float, views: tuple, opts: PoseOptions) -> 
         va, vb, ends = _relabelled(view_a, view_b, ea, eb, m, lm)
         fitted = (ea, {a: replace(eb[b], key=a) for b, (a, _) in m.mapping.items()})
         try:
-            r = labelled_pose(va, vb, ends, _detected(opts), fitted=fitted)
+            r = labelled_pose(va, vb, ends, opts, fitted=fitted)
         except CatadioptricError:
             continue
         c = res.candidates[k]
