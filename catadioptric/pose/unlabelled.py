@@ -12,10 +12,10 @@ from dataclasses import replace
 import numpy as np
 
 from .._checks import CatadioptricError
+from . import matching
 from .central import Parallax
 from .families import ViewLines, fit_view_families, is_central
 from .labelled import SAME_ANSWER_DEG, Candidate, PoseOptions, RelativePose, labelled_pose
-from . import matching
 from .rotation import rotation_angle_deg
 from .static import static_rotation
 
