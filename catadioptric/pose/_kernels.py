@@ -8,13 +8,16 @@ and cached, like :mod:`catadioptric.solvers._kernels`:
   pixel order (the order in which ``numpy.bincount`` would add the same terms).
 * :func:`alignment_table`, of the lines matched in their order
   (:class:`catadioptric.pose.matching.LinesInOrder`): the dynamic programme of a monotone alignment.
+* :func:`neighbour_costs`, of the RANSAC by neighbours (:func:`catadioptric.pose.matching.match_lines`):
+  each displacement's truncated cost over the meeting rays of A, each at its best candidate in B,
+  without the hypotheses-by-candidates arrays.
 """
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
 
-__all__ = ["reduced_normal_equations", "alignment_table"]
+__all__ = ["reduced_normal_equations", "alignment_table", "neighbour_costs"]
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -71,3 +74,41 @@ def alignment_table(gain):
                 best = D[i - 1, j]
             D[i, j] = best
     return D
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def neighbour_costs(T, A, p, q, starts, n_rays, var, c2, cos_parallax):
+    """``cost (H,)`` of unit displacements ``T (H, 3)``: over ``n_rays`` meeting rays of A, each ray's
+    smallest truncated term among its candidate pairs, ``c2`` for a ray without one.
+
+    The candidate pairs (``A (K, 3)``: unit normals of their epipolar planes; ``p, q (K, 3)``: the
+    rays of A, rotated into B, and of B) come grouped by their ray of A, group ``g`` the rows
+    ``starts[g]:starts[g + 1]`` (``starts (G + 1,)``). A pair's term is its squared epipolar residual
+    over ``var`` where that is at most ``c2`` and the rays meet in front of both centres (the
+    depths' numerators both positive, or the rays within the parallax whose cosine is
+    ``cos_parallax``), else ``c2``: the terms of
+    :func:`catadioptric.pose.central.truncated_residuals2` with ``min_parallax``."""
+    H = T.shape[0]
+    G = starts.shape[0] - 1
+    K = A.shape[0]
+    pq = np.empty(K)
+    for k in range(K):
+        pq[k] = p[k, 0] * q[k, 0] + p[k, 1] * q[k, 1] + p[k, 2] * q[k, 2]
+    out = np.empty(H)
+    rest = c2 * (n_rays - G)
+    for h in range(H):
+        t0, t1, t2 = T[h, 0], T[h, 1], T[h, 2]
+        total = 0.0
+        for g in range(G):
+            best = c2
+            for k in range(starts[g], starts[g + 1]):
+                r = t0 * A[k, 0] + t1 * A[k, 1] + t2 * A[k, 2]
+                r2 = r * r / var
+                if r2 < best:
+                    pt = t0 * p[k, 0] + t1 * p[k, 1] + t2 * p[k, 2]
+                    qt = t0 * q[k, 0] + t1 * q[k, 1] + t2 * q[k, 2]
+                    if (pq[k] * qt - pt > 0.0 and qt - pq[k] * pt > 0.0) or pq[k] > cos_parallax:
+                        best = r2
+            total += best
+        out[h] = total + rest
+    return out

@@ -34,7 +34,7 @@ import numpy as np
 
 from .._numeric import cross
 from ..appearance import contrasts_agree
-from ._kernels import alignment_table
+from ._kernels import alignment_table, neighbour_costs
 from .central import meeting, rad_per_px, residuals2, sides, translation_costs, truncated_residuals2
 from .rotation import refine_rotation, rotation_angle_deg, rotation_from_directions, with_floor
 
@@ -570,7 +570,9 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
                     best[ci[k]] = k
             return best
 
-        costs = np.concatenate([per_crossing_cost(T[c:c + 256])[0] for c in range(0, len(T), 256)])
+        costs = neighbour_costs(np.ascontiguousarray(T), np.ascontiguousarray(A), np.ascontiguousarray(p_),
+                                np.ascontiguousarray(q_), np.r_[starts, len(ci)].astype(np.int64), len(xa),
+                                (thr / 3.0) ** 2, float(c2), float(np.cos(3.0 * thr)))
 
         def verified(t):
             """Least squares on ``t``'s inlier pairs, lines matched one to one by the votes of the
