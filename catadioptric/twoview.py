@@ -16,7 +16,7 @@ import numpy as np
 from ._checks import CatadioptricError, as_scalar
 
 __all__ = ["ImagePairPose", "relative_pose_from_images", "pose_from_detections", "pair_overlay", "image_pair_summary",
-           "image_pair_markdown", "register", "COVARIANCE_SCALE"]
+           "image_pair_markdown", "register", "COVARIANCE_SCALE", "LOOK_BAR", "settle_by_look"]
 
 
 @dataclass
@@ -50,7 +50,8 @@ def _family_map(pose) -> dict:
 def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_options: dict | None = None,
                               min_pixels: int = 30, max_rotation_deg: float | None = None, decisive: float = 25.0,
                               decisive_matching: float | None = None, seed: int = 0, joint: bool = True,
-                              covariance_scale: float | None = None, masks=(None, None)) -> ImagePairPose:
+                              covariance_scale: float | None = None, masks=(None, None),
+                              look: bool = True) -> ImagePairPose:
     """The relative pose of two views from their images alone.
 
     ``image_a``, ``image_b``: arrays (RGB or grey; uint8, uint16 or float in [0, 1]) taken by
@@ -65,7 +66,10 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
     ``decisive``, ``decisive_matching``: see :func:`catadioptric.pose.relative_pose`. ``joint``:
     families of the lines left over found in both views at once (:func:`pose_from_detections`).
     ``covariance_scale``: the answer's covariance is that of the fit times its square (default
-    :data:`COVARIANCE_SCALE`, measured on rendered pairs; 1: the fit's own). Raises :class:`CatadioptricError` naming the cause when a view has fewer than two families.
+    :data:`COVARIANCE_SCALE`, measured on rendered pairs; 1: the fit's own). ``look``: an answer that
+    only its margin left ambiguous is decided by the images' look when that agrees with the
+    geometry's best answer (:func:`settle_by_look`). Raises :class:`CatadioptricError` naming the
+    cause when a view has fewer than two families.
     """
     from .detect import detect_lines
     from .detect.image import check_image_size, to_channels
@@ -109,6 +113,8 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
         raise CatadioptricError(f"{exc} ({mixed})") from None
     if mixed is not None:
         res.pose.notes = [mixed, *res.pose.notes]
+    if look:
+        settle_by_look(res, (image_a, image_b), (cam_a, cam_b), masks)
     t2 = time.perf_counter()
     res.seconds = {"detect": t1 - t0, "pose": t2 - t1, "total": t2 - t0}
     return res
@@ -218,6 +224,58 @@ COVARIANCE_SCALE = 3.0
 #: claimed deviation on the benchmark's answered pairs and on the held-out ones (2.4 and 2.5;
 #: docs/relative_pose.md, "Families only both images show")
 _JOINT_AGREE_SIGMA = 5.0 * 2.5
+
+
+#: the agreement of the images (:func:`catadioptric.photometric.rotation_agreement`, a correlation) by
+#: which the geometry's best answer must beat every other answer its directions allow, for
+#: :func:`settle_by_look` to decide an answer left ambiguous
+LOOK_BAR = 0.1
+
+
+def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, None), *, bar: float = LOOK_BAR) -> bool:
+    """Decide an answer that the geometry left ambiguous by its margin alone (no other reason:
+    ``pose.evidence["ambiguous_by"]``) by how the images look under each of its candidates.
+
+    Each different answer among ``res.pose.candidates`` (rotations more than
+    :data:`~catadioptric.pose.labelled.SAME_ANSWER_DEG` apart, the cheapest of each) is scored by
+    the agreement of image B with image A turned by its rotation
+    (:func:`catadioptric.photometric.rotation_agreement`). When the geometry's best answer (the first)
+    agrees better than every other by at least ``bar`` it is the answer: ``ambiguous`` becomes False.
+    A rival the images cannot score (too little of B seen in A under it) is no evidence for the
+    first. What was measured goes to ``pose.evidence["look"]`` (each answer's candidate index and
+    agreement, the margin, the bar, whether it decided) and the notes. Returns whether it decided."""
+    from .photometric import rotation_agreement
+    from .pose import rotation_angle_deg
+    from .pose.labelled import SAME_ANSWER_DEG
+
+    p = res.pose
+    ev = p.evidence
+    why = ev.get("ambiguous_by") if ev else None
+    if not p.ambiguous or not why or not set(why) <= {"margin", "lines_in_order"}:
+        return False
+    answers = []
+    for k, c in enumerate(p.candidates):
+        if np.isfinite(c.cost) and all(rotation_angle_deg(c.R @ p.candidates[j].R.T) > SAME_ANSWER_DEG for j in answers):
+            answers.append(k)
+    if len(answers) < 2 or answers[0] != 0:
+        return False
+    agree = rotation_agreement(images[0], images[1], cams[0], cams[1], np.stack([p.candidates[k].R for k in answers]),
+                               masks=masks)
+    rivals = agree[1:]
+    margin = float(agree[0] - np.max(rivals)) if np.all(np.isfinite(agree)) else float("nan")
+    decided = bool(np.isfinite(margin) and margin >= bar)
+    ev["look"] = {"candidates": answers, "agreement": [float(a) for a in agree], "margin": margin, "bar": float(bar),
+                  "decided": decided}
+    if decided:
+        p.ambiguous = False
+        p.notes = [f"decided by the images' look: image B agrees with image A turned by the best answer "
+                   f"(correlation {agree[0]:.3f}) better than by any of the {len(rivals)} other answers by "
+                   f"{margin:.3f}, against a bar of {bar:g}", *p.notes]
+    else:
+        lost = ("some answers' rotations leave too little of B seen in A to compare" if not np.isfinite(margin) else
+                f"margin {margin:.3f} against a bar of {bar:g}")
+        p.notes = [*p.notes, f"the images' look did not decide it: {lost}"]
+    return decided
 
 
 def _finite_std(pose) -> float:

@@ -134,6 +134,11 @@ def unlabelled_pose(view_a: ViewLines, view_b: ViewLines, opts: PoseOptions) -> 
     if static is not None:
         res.ambiguous = False
         extra.append(_turned_in_place(res, static))
+    # what left the answer ambiguous, for a later cue that may settle it (catadioptric.twoview)
+    res.evidence["ambiguous_by"] = [] if not res.ambiguous else \
+        [why for why, on in (("margin", margin < bar), ("unscored", why_unscored is not None),
+                             ("turned_in_place", conflict is not None),
+                             ("lines_in_order", unordered_conflict is not None)) if on]
     if res.ambiguous:
         refined = _refine_rivals(res, scored, bar, (view_a, view_b, ea, eb), opts)
         if refined:

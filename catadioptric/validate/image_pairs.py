@@ -82,6 +82,30 @@ def _geometry_alone(res, R_gt) -> dict:
     return out
 
 
+def _look(res, R_gt) -> dict:
+    """What the images' look said of an answer the geometry left ambiguous by its margin
+    (:func:`catadioptric.twoview.settle_by_look`; None where it was not asked): whether it decided,
+    its margin (the geometry's best answer's agreement over every other's), and the answer the look
+    ranks first: its rotation error, its agreement's margin over the next, and whether the geometry
+    keeps it within its bar of the best."""
+    from ..pose import rotation_angle_deg
+
+    lk = (res.evidence or {}).get("look")
+    out = {"look_decided": None, "look_margin": None, "look_best_error_deg": None, "look_best_margin": None,
+           "look_best_within_bar": None}
+    if not lk:
+        return out
+    agree = np.asarray(lk["agreement"], float)
+    out |= {"look_decided": bool(lk["decided"]), "look_margin": float(lk["margin"])}
+    if np.all(np.isfinite(agree)):
+        order = np.argsort(-agree)
+        best = res.candidates[lk["candidates"][order[0]]]
+        out |= {"look_best_error_deg": rotation_angle_deg(best.R @ R_gt.T),
+                "look_best_margin": float(agree[order[0]] - agree[order[1]]),
+                "look_best_within_bar": bool(best.cost - res.candidates[0].cost < res.evidence["bar"])}
+    return out
+
+
 def _mahalanobis(res, R_gt, t_gt) -> dict:
     """The errors against the answer's own covariance: ``rotation_mahalanobis2``, ``w^T C_w^-1 w`` for
     the error rotation ``exp(w) = R R_gt^T`` (left, as the covariance), and
@@ -130,23 +154,25 @@ def _lost(scores, label_families, rows) -> list[dict]:
 
 
 def evaluate_image_pair(dataset, names, *, priors=(None, 60.0), min_pixels: int = 30, detect_options=None,
-                        overlay: str | None = None, joint: bool = True) -> dict:
+                        overlay: str | None = None, joint: bool = True, look: bool = True) -> dict:
     """Score the image-only path on the view pair ``names = (A, B)`` of ``dataset`` (a folder or a
     :class:`catadioptric.Dataset`) for each motion prior. ``overlay``: a PNG path for the pair's
     overlay (the answer of the last prior). ``joint``: see
-    :func:`catadioptric.twoview.pose_from_detections`. Returns a JSON-ready dict."""
+    :func:`catadioptric.twoview.pose_from_detections`; ``look``: an answer left ambiguous by its
+    margin decided by the images' look where it can be (:func:`catadioptric.twoview.settle_by_look`).
+    Returns a JSON-ready dict."""
     from threadpoolctl import threadpool_limits
 
     with threadpool_limits(1):
-        return _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, joint)
+        return _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, (joint, look))
 
 
-def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, joint):
+def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, steps):
     from ..dataset import Dataset
     from ..detect import detect_lines, evaluate_view
     from ..pose import rotation_angle_deg
     from ..pose.families import rays_centre
-    from ..twoview import pair_overlay, pose_from_detections
+    from ..twoview import pair_overlay, pose_from_detections, settle_by_look
 
     ds = dataset if isinstance(dataset, Dataset) else Dataset(dataset)
     if len(names) != 2 or any(n not in ds.names for n in names):
@@ -170,6 +196,7 @@ def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, joint
            "families_label": label_families, "families_label_3": label_families_3, "runs": []}
     centres = [rays_centre(c) for c in (va["camera"], vb["camera"])]
     last = None
+    joint, look = steps
     for prior in priors:
         rec = {"max_rotation_deg": prior}
         t1 = time.perf_counter()
@@ -179,6 +206,8 @@ def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, joint
             rec.update({"error": str(exc), "seconds": time.perf_counter() - t1})
             out["runs"].append(rec)
             continue
+        if look:
+            settle_by_look(pair, (va["beauty"], vb["beauty"]), (va["camera"], vb["camera"]))
         res, fmap = pair.pose, pair.family_map
         # the families found in both views at once are scored as the detected ones are
         fdets = pair.detections
@@ -190,6 +219,7 @@ def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, joint
                     "translation_direction_error_deg": None, "seconds": time.perf_counter() - t1,
                     "candidates": len(res.candidates), "notes": res.notes})
         rec.update(_geometry_alone(res, R_gt))
+        rec.update(_look(res, R_gt))
         if res.t is not None:
             if res.metric:
                 rec["translation_error_m"] = float(np.linalg.norm(res.t - t_gt))

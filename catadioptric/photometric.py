@@ -1,0 +1,101 @@
+"""How two images of one scene agree under a candidate rotation (:func:`rotation_agreement`).
+
+Image B's pixels (every ``step``-th row and column, inside the mirror's region and the mask) are
+back-projected to their rays' directions ``d_B``; a candidate ``R`` of ``x_B = R x_A + t`` turns
+each into A's frame, ``d_A = R^T d_B``, whose vanishing point in image A is where A sees that
+direction. The agreement of the candidate is the correlation (Pearson's) of B's luminance at its
+pixels with A's at those vanishing points, both blurred (a Gaussian of ``blur_px``).
+
+This compares the views as if the scene were at infinity: it leaves out the translation, so a
+point at distance ``D`` from a baseline ``b`` is seen up to ``b / D`` radians apart in the two
+images. Blurred and averaged over the whole image, the sky above, the ground below and the
+facades' layout and colours around still agree far better under the right rotation than under
+the rotations that a Manhattan scene's directions allow as well (a street's half-turn puts one
+side's facades onto the other's). :func:`catadioptric.twoview.relative_pose_from_images` uses it
+to choose among those answers (docs/relative_pose.md, "From two images").
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._checks import CatadioptricError, as_count, as_scalar
+
+__all__ = ["rotation_agreement", "BLUR_PX", "STEP", "MIN_SAMPLES"]
+
+#: the Gaussian blur of both images' luminance (pixels) before they are compared
+BLUR_PX = 3.0
+#: every ``STEP``-th row and column of image B is compared
+STEP = 4
+#: fewer pixels of B seen in A than this: the agreement is not measured (NaN)
+MIN_SAMPLES = 200
+
+
+def rotation_agreement(image_a, image_b, cam_a, cam_b, rotations, *, masks=(None, None), step: int = STEP,
+                       blur_px: float = BLUR_PX, min_samples: int = MIN_SAMPLES) -> np.ndarray:
+    """The correlation ``(K,)`` of image B with image A turned by each of ``rotations (K, 3, 3)``
+    (``x_B = R x_A + t``, the cameras' frames; module docstring), in [-1, 1]; NaN for a rotation
+    under which fewer than ``min_samples`` of B's sampled pixels are seen in A.
+
+    ``image_a``, ``image_b``: as :func:`catadioptric.detect.detect_lines` takes them; ``cam_a``,
+    ``cam_b``: cameras with ``backproject`` and ``vanishing_points`` (an exact rig or a camera
+    model); ``masks``: each image's mask (non-zero: use the pixel; None: all), of the image's size."""
+    import cv2
+
+    from .detect.image import to_grey
+    from .detect.region import mirror_region
+
+    R = np.asarray(rotations, dtype=float)
+    if R.ndim != 3 or R.shape[1:] != (3, 3) or not np.all(np.isfinite(R)):
+        raise CatadioptricError(f"rotations: expected finite (K, 3, 3) rotation matrices, got shape {R.shape}")
+    step = as_count(step, "step")
+    blur_px = as_scalar(blur_px, "blur_px", positive=True)
+    min_samples = as_count(min_samples, "min_samples")
+    erode = int(math.ceil(2.0 * blur_px))  # the blur does not mix the mirror's rim into what is compared
+    grey, usable = [], []
+    for name, img, cam, mask in (("image_a", image_a, cam_a, masks[0]), ("image_b", image_b, cam_b, masks[1])):
+        g = to_grey(img).astype(np.float32)
+        ok = mirror_region(cam, erode_px=erode)
+        if ok.shape != g.shape:
+            raise CatadioptricError(f"{name}: expected the camera's size {ok.shape[1]}x{ok.shape[0]}, got "
+                                    f"{g.shape[1]}x{g.shape[0]}")
+        if mask is not None:
+            m = np.asarray(mask)
+            if m.shape[:2] != g.shape:
+                raise CatadioptricError(f"{name}'s mask: expected the image's size {g.shape[1]}x{g.shape[0]}, got "
+                                        f"{m.shape[1]}x{m.shape[0]}")
+            ok = ok & (m.reshape(m.shape[:2] + (-1,)).max(axis=-1) > 0)
+        grey.append(cv2.GaussianBlur(g, (0, 0), blur_px))
+        usable.append(ok)
+    H, W = grey[1].shape
+    v, u = np.mgrid[0:H:step, 0:W:step]
+    keep = usable[1][v, u]
+    uv_b = np.stack([u[keep], v[keep]], axis=-1).astype(float)
+    rays = cam_b.backproject(uv_b)
+    ok = np.asarray(rays.valid, bool) & np.all(np.isfinite(rays.directions), axis=-1)
+    d_b = rays.directions[ok]
+    lum_b = grey[1][uv_b[ok, 1].astype(int), uv_b[ok, 0].astype(int)].astype(float)
+    out = np.full(len(R), np.nan)
+    if len(d_b) < min_samples:
+        return out
+    Ha, Wa = grey[0].shape
+    for k, Rk in enumerate(R):
+        vp = cam_a.vanishing_points(d_b @ Rk)  # R^T d for each row d
+        seen = vp.valid & vp.in_image
+        first = np.argmax(seen, axis=-1)
+        uv_a = vp.uv[np.arange(len(d_b)), first]
+        hit = seen.any(axis=-1)
+        uv_a = np.where(hit[:, None], uv_a, 0.0)
+        col = np.clip(np.rint(uv_a[:, 0]), 0, Wa - 1).astype(int)
+        row = np.clip(np.rint(uv_a[:, 1]), 0, Ha - 1).astype(int)
+        hit &= usable[0][row, col]
+        if hit.sum() < min_samples:
+            continue
+        lum_a = cv2.remap(grey[0], uv_a[hit, 0].astype(np.float32).reshape(-1, 1),
+                          uv_a[hit, 1].astype(np.float32).reshape(-1, 1), cv2.INTER_LINEAR,
+                          borderMode=cv2.BORDER_REPLICATE).ravel().astype(float)
+        a, b = lum_a - lum_a.mean(), lum_b[hit] - lum_b[hit].mean()
+        den = math.sqrt(float(a @ a) * float(b @ b))
+        out[k] = float(a @ b) / den if den > 0 else 0.0
+    return out
