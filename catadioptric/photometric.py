@@ -22,7 +22,8 @@ import numpy as np
 
 from ._checks import CatadioptricError, as_count, as_scalar
 
-__all__ = ["rotation_agreement", "BLUR_PX", "STEP", "MIN_SAMPLES"]
+__all__ = ["rotation_agreement", "RotationAgreement", "BLUR_PX", "STEP", "MIN_SAMPLES", "NEAR_START_DEG",
+           "NEAR_EVALS"]
 
 #: the Gaussian blur of both images' luminance (pixels) before they are compared
 BLUR_PX = 3.0
@@ -30,6 +31,9 @@ BLUR_PX = 3.0
 STEP = 4
 #: fewer pixels of B seen in A than this: the agreement is not measured (NaN)
 MIN_SAMPLES = 200
+#: :meth:`RotationAgreement.best_near`: the search's first simplex (degrees) and its most agreements
+NEAR_START_DEG = 3.0
+NEAR_EVALS = 150
 
 
 def rotation_agreement(image_a, image_b, cam_a, cam_b, rotations, *, masks=(None, None), step: int = STEP,
@@ -40,62 +44,101 @@ def rotation_agreement(image_a, image_b, cam_a, cam_b, rotations, *, masks=(None
 
     ``image_a``, ``image_b``: as :func:`catadioptric.detect.detect_lines` takes them; ``cam_a``,
     ``cam_b``: cameras with ``backproject`` and ``vanishing_points`` (an exact rig or a camera
-    model); ``masks``: each image's mask (non-zero: use the pixel; None: all), of the image's size."""
-    import cv2
+    model); ``masks``: each image's mask (non-zero: use the pixel; None: all), of the image's size.
+    :class:`RotationAgreement` keeps the images' preparation for more rotations."""
+    return RotationAgreement(image_a, image_b, cam_a, cam_b, masks=masks, step=step, blur_px=blur_px,
+                             min_samples=min_samples)(rotations)
 
-    from .detect.image import to_grey
-    from .detect.region import mirror_region
 
-    R = np.asarray(rotations, dtype=float)
-    if R.ndim != 3 or R.shape[1:] != (3, 3) or not np.all(np.isfinite(R)):
-        raise CatadioptricError(f"rotations: expected finite (K, 3, 3) rotation matrices, got shape {R.shape}")
-    step = as_count(step, "step")
-    blur_px = as_scalar(blur_px, "blur_px", positive=True)
-    min_samples = as_count(min_samples, "min_samples")
-    erode = int(math.ceil(2.0 * blur_px))  # the blur does not mix the mirror's rim into what is compared
-    grey, usable = [], []
-    for name, img, cam, mask in (("image_a", image_a, cam_a, masks[0]), ("image_b", image_b, cam_b, masks[1])):
-        g = to_grey(img).astype(np.float32)
-        ok = mirror_region(cam, erode_px=erode)
-        if ok.shape != g.shape:
-            raise CatadioptricError(f"{name}: expected the camera's size {ok.shape[1]}x{ok.shape[0]}, got "
-                                    f"{g.shape[1]}x{g.shape[0]}")
-        if mask is not None:
-            m = np.asarray(mask)
-            if m.shape[:2] != g.shape:
-                raise CatadioptricError(f"{name}'s mask: expected the image's size {g.shape[1]}x{g.shape[0]}, got "
-                                        f"{m.shape[1]}x{m.shape[0]}")
-            ok = ok & (m.reshape(m.shape[:2] + (-1,)).max(axis=-1) > 0)
-        grey.append(cv2.GaussianBlur(g, (0, 0), blur_px))
-        usable.append(ok)
-    H, W = grey[1].shape
-    v, u = np.mgrid[0:H:step, 0:W:step]
-    keep = usable[1][v, u]
-    uv_b = np.stack([u[keep], v[keep]], axis=-1).astype(float)
-    rays = cam_b.backproject(uv_b)
-    ok = np.asarray(rays.valid, bool) & np.all(np.isfinite(rays.directions), axis=-1)
-    d_b = rays.directions[ok]
-    lum_b = grey[1][uv_b[ok, 1].astype(int), uv_b[ok, 0].astype(int)].astype(float)
-    out = np.full(len(R), np.nan)
-    if len(d_b) < min_samples:
+class RotationAgreement:
+    """:func:`rotation_agreement` of two images, prepared once (their blurred luminance, usable
+    pixels and B's rays) for any number of rotations: call it with ``rotations (K, 3, 3)``;
+    :meth:`best_near` looks for the rotation near one where the images agree best."""
+
+    def __init__(self, image_a, image_b, cam_a, cam_b, *, masks=(None, None), step: int = STEP,
+                 blur_px: float = BLUR_PX, min_samples: int = MIN_SAMPLES):
+        import cv2
+
+        from .detect.image import to_grey
+        from .detect.region import mirror_region
+
+        step = as_count(step, "step")
+        blur_px = as_scalar(blur_px, "blur_px", positive=True)
+        self.min_samples = as_count(min_samples, "min_samples")
+        erode = int(math.ceil(2.0 * blur_px))  # the blur does not mix the mirror's rim into what is compared
+        grey, usable = [], []
+        for name, img, cam, mask in (("image_a", image_a, cam_a, masks[0]), ("image_b", image_b, cam_b, masks[1])):
+            g = to_grey(img).astype(np.float32)
+            ok = mirror_region(cam, erode_px=erode)
+            if ok.shape != g.shape:
+                raise CatadioptricError(f"{name}: expected the camera's size {ok.shape[1]}x{ok.shape[0]}, got "
+                                        f"{g.shape[1]}x{g.shape[0]}")
+            if mask is not None:
+                m = np.asarray(mask)
+                if m.shape[:2] != g.shape:
+                    raise CatadioptricError(f"{name}'s mask: expected the image's size {g.shape[1]}x{g.shape[0]}, "
+                                            f"got {m.shape[1]}x{m.shape[0]}")
+                ok = ok & (m.reshape(m.shape[:2] + (-1,)).max(axis=-1) > 0)
+            grey.append(cv2.GaussianBlur(g, (0, 0), blur_px).astype(float))
+            usable.append(ok)
+        H, W = grey[1].shape
+        v, u = np.mgrid[0:H:step, 0:W:step]
+        keep = usable[1][v, u]
+        uv_b = np.stack([u[keep], v[keep]], axis=-1).astype(float)
+        rays = cam_b.backproject(uv_b)
+        ok = np.asarray(rays.valid, bool) & np.all(np.isfinite(rays.directions), axis=-1)
+        self.d_b = rays.directions[ok]
+        self.lum_b = grey[1][uv_b[ok, 1].astype(int), uv_b[ok, 0].astype(int)]
+        self.grey_a, self.usable_a, self.cam_a = grey[0], usable[0], cam_a
+
+    def __call__(self, rotations) -> np.ndarray:
+        from scipy.ndimage import map_coordinates
+
+        R = np.asarray(rotations, dtype=float)
+        if R.ndim != 3 or R.shape[1:] != (3, 3) or not np.all(np.isfinite(R)):
+            raise CatadioptricError(f"rotations: expected finite (K, 3, 3) rotation matrices, got shape {R.shape}")
+        out = np.full(len(R), np.nan)
+        d_b = self.d_b
+        if len(d_b) < self.min_samples:
+            return out
+        Ha, Wa = self.grey_a.shape
+        for k, Rk in enumerate(R):
+            vp = self.cam_a.vanishing_points(d_b @ Rk)  # R^T d for each row d
+            seen = vp.valid & vp.in_image
+            uv_a = vp.uv[np.arange(len(d_b)), np.argmax(seen, axis=-1)]
+            hit = seen.any(axis=-1)
+            uv_a = np.where(hit[:, None], uv_a, 0.0)
+            col = np.clip(np.rint(uv_a[:, 0]), 0, Wa - 1).astype(int)
+            row = np.clip(np.rint(uv_a[:, 1]), 0, Ha - 1).astype(int)
+            hit &= self.usable_a[row, col]
+            if hit.sum() < self.min_samples:
+                continue
+            lum_a = map_coordinates(self.grey_a, [uv_a[hit, 1], uv_a[hit, 0]], order=1, mode="nearest")
+            a, b = lum_a - lum_a.mean(), self.lum_b[hit] - self.lum_b[hit].mean()
+            den = math.sqrt(float(a @ a) * float(b @ b))
+            out[k] = float(a @ b) / den if den > 0 else 0.0
         return out
-    Ha, Wa = grey[0].shape
-    for k, Rk in enumerate(R):
-        vp = cam_a.vanishing_points(d_b @ Rk)  # R^T d for each row d
-        seen = vp.valid & vp.in_image
-        first = np.argmax(seen, axis=-1)
-        uv_a = vp.uv[np.arange(len(d_b)), first]
-        hit = seen.any(axis=-1)
-        uv_a = np.where(hit[:, None], uv_a, 0.0)
-        col = np.clip(np.rint(uv_a[:, 0]), 0, Wa - 1).astype(int)
-        row = np.clip(np.rint(uv_a[:, 1]), 0, Ha - 1).astype(int)
-        hit &= usable[0][row, col]
-        if hit.sum() < min_samples:
-            continue
-        lum_a = cv2.remap(grey[0], uv_a[hit, 0].astype(np.float32).reshape(-1, 1),
-                          uv_a[hit, 1].astype(np.float32).reshape(-1, 1), cv2.INTER_LINEAR,
-                          borderMode=cv2.BORDER_REPLICATE).ravel().astype(float)
-        a, b = lum_a - lum_a.mean(), lum_b[hit] - lum_b[hit].mean()
-        den = math.sqrt(float(a @ a) * float(b @ b))
-        out[k] = float(a @ b) / den if den > 0 else 0.0
-    return out
+
+    def best_near(self, R, *, start_deg: float = NEAR_START_DEG, max_evals: int = NEAR_EVALS):
+        """``(R_best, agreement)``: the rotation near ``R`` (3, 3) where the images agree best, by
+        Nelder-Mead's search over a rotation ``exp(w) R`` from a simplex of ``start_deg`` degrees, at
+        most ``max_evals`` agreements (deterministic). The translation the agreement leaves out moves
+        the best rotation a few degrees from the true one (3-7 degrees on rendered street pairs of
+        2-8 m), and the agreement there is a few hundredths higher: a rotation that agrees much better
+        nearby says that ``R`` is not where the images agree."""
+        from scipy.optimize import minimize
+        from scipy.spatial.transform import Rotation
+
+        R = np.asarray(R, dtype=float)
+
+        def cost(w):
+            a = self(Rotation.from_rotvec(w).as_matrix()[None] @ R)[0]
+            return -a if np.isfinite(a) else 1.0
+
+        s = math.radians(as_scalar(start_deg, "start_deg", positive=True))
+        res = minimize(cost, np.zeros(3), method="Nelder-Mead",
+                       options={"initial_simplex": np.vstack([np.zeros(3), s * np.eye(3)]),
+                                "xatol": math.radians(0.2), "fatol": 1e-4, "maxfev": as_count(max_evals, "max_evals")})
+        w = res.x if res.fun <= cost(np.zeros(3)) else np.zeros(3)
+        Rb = Rotation.from_rotvec(w).as_matrix() @ R
+        return Rb, float(self(Rb[None])[0])

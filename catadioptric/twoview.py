@@ -227,8 +227,8 @@ _JOINT_AGREE_SIGMA = 5.0 * 2.5
 
 
 #: the agreement of the images (:func:`catadioptric.photometric.rotation_agreement`, a correlation) by
-#: which the geometry's best answer must beat every other answer its directions allow, for
-#: :func:`settle_by_look` to decide an answer left ambiguous
+#: which an answer must beat every other answer its directions allow, for :func:`settle_by_look`
+#: to decide an answer left ambiguous
 LOOK_BAR = 0.1
 
 
@@ -239,12 +239,17 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     Each different answer among ``res.pose.candidates`` (rotations more than
     :data:`~catadioptric.pose.labelled.SAME_ANSWER_DEG` apart, the cheapest of each) is scored by
     the agreement of image B with image A turned by its rotation
-    (:func:`catadioptric.photometric.rotation_agreement`). When the geometry's best answer (the first)
-    agrees better than every other by at least ``bar`` it is the answer: ``ambiguous`` becomes False.
-    A rival the images cannot score (too little of B seen in A under it) is no evidence for the
-    first. What was measured goes to ``pose.evidence["look"]`` (each answer's candidate index and
-    agreement, the margin, the bar, whether it decided) and the notes. Returns whether it decided."""
-    from .photometric import rotation_agreement
+    (:func:`catadioptric.photometric.rotation_agreement`). The answer that agrees best is the
+    answer when it agrees better than every other by at least ``bar`` and the geometry keeps it
+    (its cost within the matching's bar of the best: one of the answers the geometry could not
+    tell apart, refined as the best was), and no rotation near it agrees better by ``bar``
+    (:meth:`~catadioptric.photometric.RotationAgreement.best_near`: the answer is where the images
+    agree, not only the best of the answers). ``res`` then holds it, decisive, its candidates first;
+    its ``margin`` stays the geometry's (negative when the geometry ranked another first). A rival
+    the images cannot score (too little of B seen in A under it) is no evidence. What was measured
+    goes to ``pose.evidence["look"]`` (each answer's candidate index and agreement, the best one's,
+    its margin, the best agreement near it and how far, the bar, whether it decided) and the notes. Returns whether it decided."""
+    from .photometric import RotationAgreement
     from .pose import rotation_angle_deg
     from .pose.labelled import SAME_ANSWER_DEG
 
@@ -259,23 +264,50 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
             answers.append(k)
     if len(answers) < 2 or answers[0] != 0:
         return False
-    agree = rotation_agreement(images[0], images[1], cams[0], cams[1], np.stack([p.candidates[k].R for k in answers]),
-                               masks=masks)
-    rivals = agree[1:]
-    margin = float(agree[0] - np.max(rivals)) if np.all(np.isfinite(agree)) else float("nan")
-    decided = bool(np.isfinite(margin) and margin >= bar)
-    ev["look"] = {"candidates": answers, "agreement": [float(a) for a in agree], "margin": margin, "bar": float(bar),
-                  "decided": decided}
-    if decided:
-        p.ambiguous = False
-        p.notes = [f"decided by the images' look: image B agrees with image A turned by the best answer "
-                   f"(correlation {agree[0]:.3f}) better than by any of the {len(rivals)} other answers by "
-                   f"{margin:.3f}, against a bar of {bar:g}", *p.notes]
-    else:
-        lost = ("some answers' rotations leave too little of B seen in A to compare" if not np.isfinite(margin) else
-                f"margin {margin:.3f} against a bar of {bar:g}")
+    judge = RotationAgreement(images[0], images[1], cams[0], cams[1], masks=masks)
+    agree = judge(np.stack([p.candidates[k].R for k in answers]))
+    look = {"candidates": answers, "agreement": [float(a) for a in agree], "best": None, "margin": float("nan"),
+            "nearby": None, "bar": float(bar), "decided": False}
+    ev["look"] = look
+    if not np.all(np.isfinite(agree)):
+        p.notes = [*p.notes, "the images' look did not decide it: some answers' rotations leave too little of B "
+                             "seen in A to compare"]
+        return False
+    order = np.argsort(-agree, kind="stable")
+    k = answers[order[0]]
+    margin = float(agree[order[0]] - agree[order[1]])
+    look |= {"best": k, "margin": margin}
+    kept = p.candidates[k].cost - p.candidates[0].cost < ev["bar"]
+    refined = k == 0 or k in p.rivals
+    gain = apart = float("nan")
+    if margin >= bar and kept and refined:
+        R_near, a_near = judge.best_near(p.candidates[k].R)
+        gain, apart = a_near - float(agree[order[0]]), rotation_angle_deg(R_near @ p.candidates[k].R.T)
+        look["nearby"] = {"agreement": a_near, "apart_deg": apart}
+    if margin < bar or not kept or not refined or not gain < bar:
+        lost = (f"margin {margin:.3f} against a bar of {bar:g}" if margin < bar else
+                f"its best answer (candidate {k}) is beyond the matching's bar" if not kept else
+                f"its best answer (candidate {k}) was not refined" if not refined else
+                f"a rotation {apart:.1f} deg from its best answer agrees better by {gain:.3f} (bar {bar:g}): that "
+                f"answer is not where the images agree")
         p.notes = [*p.notes, f"the images' look did not decide it: {lost}"]
-    return decided
+        return False
+    look["decided"] = True
+    note = (f"decided by the images' look: image B agrees with image A turned by "
+            f"{'the best answer' if k == 0 else f'candidate {k} (within the matching bar of the best)'} "
+            f"(correlation {agree[order[0]]:.3f}) better than by any of the {len(answers) - 1} other answers by "
+            f"{margin:.3f}, against a bar of {bar:g}")
+    if k != 0:
+        new = p.rivals[k]
+        costs = [c.cost for j, c in enumerate(p.candidates) if j != k
+                 and rotation_angle_deg(c.R @ p.candidates[k].R.T) > SAME_ANSWER_DEG]
+        new.candidates = [p.candidates[k], *[c for j, c in enumerate(p.candidates) if j != k]]
+        new.margin = float(min(costs) - p.candidates[k].cost)
+        new.evidence, new.notes = ev, [*p.notes, *new.notes]
+        res.pose, res.family_map, p = new, _family_map(new), new
+    p.ambiguous = False
+    p.notes = [note, *p.notes]
+    return True
 
 
 def _finite_std(pose) -> float:
@@ -438,7 +470,7 @@ def _run(args) -> int:
     res = relative_pose_from_images(images[0], images[1], cam_a, cam_b, detect_options=opts,
                                     min_pixels=args.min_pixels, max_rotation_deg=args.max_rotation,
                                     decisive=args.decisive, decisive_matching=args.decisive_matching,
-                                    joint=not args.no_joint_families, masks=masks)
+                                    joint=not args.no_joint_families, masks=masks, look=not args.no_look)
     os.makedirs(args.out, exist_ok=True)
     summary = image_pair_summary(res) | {"images": [os.path.abspath(args.image_a), os.path.abspath(args.image_b)],
                                          "rig": [args.rig, args.rig_b or args.rig]}
@@ -492,6 +524,9 @@ def register(sub) -> None:
     p.add_argument("--no-joint-families", action="store_true",
                    help="do not look for the families that only both images together show (two lines in each; "
                         "docs/relative_pose.md)")
+    p.add_argument("--no-look", action="store_true",
+                   help="do not let the images' look decide an answer the geometry leaves ambiguous by its margin "
+                        "(docs/relative_pose.md)")
     p.add_argument("--denoise", choices=["auto", "nlmeans", "bilateral", "none"],
                    help="denoising before the edges (default auto)")
     p.add_argument("--threshold", type=positive_float, default=None, metavar="PX",

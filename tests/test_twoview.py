@@ -69,7 +69,7 @@ def test_matching_without_labels_has_its_own_margin(street):
     is reported ambiguous, every candidate listed, when the bar is above its margin."""
     _, a, b, R_gt, _ = street
     res = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0,
-                                    decisive_matching=200.0)
+                                    decisive_matching=200.0, look=False)
     assert res.pose.margin >= 60.0
     assert res.pose.ambiguous == (res.pose.margin < 200.0)
     assert rotation_angle_deg(res.pose.R @ R_gt.T) < 0.5
@@ -88,7 +88,8 @@ def test_the_default_bar_grows_with_the_rival_assignments(with_prior):
     tried = int(re.search(r"(\d+) family assignments tried", note).group(1))
     bar = float(re.search(r"against a bar of ([\d.]+)", note).group(1))
     assert tried <= 24 and bar == 25.0, note
-    assert res.pose.ambiguous == (res.pose.margin < bar)
+    by_look = bool((res.pose.evidence.get("look") or {}).get("decided"))
+    assert res.pose.ambiguous == (res.pose.margin < bar and not by_look)
 
 
 def test_matching_bar():
@@ -270,9 +271,42 @@ def test_no_families_are_looked_for_under_an_ambiguous_answer(street):
     ambiguous (here forced by a matching bar above its margin) nothing is added."""
     _, a, b, _, _ = street
     res = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0,
-                                    decisive_matching=10000.0)
+                                    decisive_matching=10000.0, look=False)
     assert res.pose.ambiguous
     assert not any("both views at once" in n for n in res.pose.notes)
+
+
+def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street):
+    """An answer the geometry left ambiguous by its margin alone (here forced: a matching bar of
+    10000) is decided by the images' look when image B agrees with A turned by the first answer
+    better than by every other answer by the bar; the answer itself does not change. Any other
+    reason for the ambiguity is left to the geometry."""
+    import copy
+
+    from catadioptric.twoview import LOOK_BAR, settle_by_look
+
+    _, a, b, R_gt, _ = street
+    res = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0,
+                                    decisive_matching=10000.0, look=False)
+    assert res.pose.ambiguous and res.pose.evidence["ambiguous_by"] == ["margin"]
+    other, low = copy.deepcopy(res), copy.deepcopy(res)
+    R0 = res.pose.R.copy()
+    decided = settle_by_look(res, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]))
+    look = res.pose.evidence["look"]
+    agree = np.array(look["agreement"])
+    assert look["candidates"][0] == 0 and len(agree) == len(look["candidates"]) >= 2
+    # on this pair the look ranks the first answer, the right one, first
+    assert look["best"] == 0 and rotation_angle_deg(res.pose.R @ R_gt.T) < 0.5, look
+    assert np.isclose(look["margin"], agree[0] - agree[1:].max()) and look["bar"] == LOOK_BAR
+    assert decided == look["decided"] == (look["margin"] >= LOOK_BAR) == (not res.pose.ambiguous)
+    # with a bar below its margin the look decides it, and the answer stays the first
+    assert settle_by_look(low, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]), bar=0.5 * look["margin"])
+    assert not low.pose.ambiguous and np.array_equal(low.pose.R, R0)
+    assert low.pose.notes[0].startswith("decided by the images' look")
+    # ambiguous for another reason (a rival the geometry could not score): the look is not asked
+    other.pose.evidence["ambiguous_by"] = ["margin", "unscored"]
+    assert not settle_by_look(other, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]))
+    assert other.pose.ambiguous and "look" not in other.pose.evidence
 
 
 # --------------------------------------------------------------------------- issue 39, item 2

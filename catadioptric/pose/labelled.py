@@ -168,6 +168,9 @@ class RelativePose:
     #: ``margin_geometry_alone``, ``margin_geometry_alone_unordered``, ``cost_geometry_alone`` per
     #: candidate, ``turned_in_place``; docs/relative_pose.md, pose.json); None with labels
     evidence: dict | None = None
+    #: without labels and ambiguous, the rivals refined as the answer was: ``{candidate index:
+    #: RelativePose}`` (empty otherwise), so that another cue may pick one of them
+    rivals: dict = field(default_factory=dict, repr=False)
 
     @property
     def translation_observable(self) -> bool:

@@ -184,7 +184,8 @@ def _refine_rivals(res, scored, bar: float, views: tuple, opts: PoseOptions) -> 
     """An ambiguous answer's rivals within ``bar`` of the best (at most ``_REFINED_RIVALS``, each a
     different answer) refined through the labelled path with their own assignment and matched lines;
     their candidates in ``res`` take the refined ``R``, ``t`` and covariance (their cost stays the
-    matching's, so the ranking does not change). Returns how many were refined."""
+    matching's, so the ranking does not change) and ``res.rivals`` each refined pose. Returns how
+    many were refined."""
     view_a, view_b, ea, eb = views
     best_score, done = scored[0][0], [res.R]
     for k in range(1, len(scored)):
@@ -203,6 +204,7 @@ def _refine_rivals(res, scored, bar: float, views: tuple, opts: PoseOptions) -> 
             continue
         c = res.candidates[k]
         res.candidates[k] = Candidate(c.signs, r.R, r.t, c.cost, c.direction_cost, r.cov, lm)
+        res.rivals[k] = r
         done.append(r.R)
     return len(done) - 1
 

@@ -84,25 +84,26 @@ def _geometry_alone(res, R_gt) -> dict:
 
 def _look(res, R_gt) -> dict:
     """What the images' look said of an answer the geometry left ambiguous by its margin
-    (:func:`catadioptric.twoview.settle_by_look`; None where it was not asked): whether it decided,
-    its margin (the geometry's best answer's agreement over every other's), and the answer the look
-    ranks first: its rotation error, its agreement's margin over the next, and whether the geometry
-    keeps it within its bar of the best."""
+    (:func:`catadioptric.twoview.settle_by_look`; None where it was not asked): whether it decided;
+    the answer it ranks first, its rotation error, its agreement's margin over every other answer,
+    whether the geometry keeps it within its bar of the best, and how much better a rotation near it
+    agrees (None where that was not looked for)."""
     from ..pose import rotation_angle_deg
 
     lk = (res.evidence or {}).get("look")
-    out = {"look_decided": None, "look_margin": None, "look_best_error_deg": None, "look_best_margin": None,
-           "look_best_within_bar": None}
+    out = {"look_decided": None, "look_margin": None, "look_best_error_deg": None, "look_best_within_bar": None,
+           "look_nearby_gain": None}
     if not lk:
         return out
-    agree = np.asarray(lk["agreement"], float)
     out |= {"look_decided": bool(lk["decided"]), "look_margin": float(lk["margin"])}
-    if np.all(np.isfinite(agree)):
-        order = np.argsort(-agree)
-        best = res.candidates[lk["candidates"][order[0]]]
+    if lk["best"] is not None:
+        first = res.candidates[0] if lk["decided"] else None  # a decided answer is the look's best, first
+        best = first if first is not None else res.candidates[lk["best"]]
+        cost0 = min(c.cost for c in res.candidates)
         out |= {"look_best_error_deg": rotation_angle_deg(best.R @ R_gt.T),
-                "look_best_margin": float(agree[order[0]] - agree[order[1]]),
-                "look_best_within_bar": bool(best.cost - res.candidates[0].cost < res.evidence["bar"])}
+                "look_best_within_bar": bool(best.cost - cost0 < res.evidence["bar"])}
+        if lk["nearby"] is not None:
+            out["look_nearby_gain"] = float(lk["nearby"]["agreement"] - max(lk["agreement"]))
     return out
 
 

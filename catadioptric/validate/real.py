@@ -169,7 +169,7 @@ def run_real(data: str, out: str, *, max_rotation_deg: float | None = None, prog
     from ..detect import detect_lines
     from ..detect.report import write_png
     from ..formats import load_camera
-    from ..twoview import pair_overlay, pose_from_detections
+    from ..twoview import pair_overlay, pose_from_detections, settle_by_look
 
     def say(msg):
         if progress:
@@ -230,6 +230,7 @@ def run_real(data: str, out: str, *, max_rotation_deg: float | None = None, prog
             say(f"static pair {a} {b} (prior {prior})")
             try:
                 res = pose_from_detections(dets[a], dets[b], max_rotation_deg=prior)
+                settle_by_look(res, (images[a], images[b]), (cam, cam))
             except CatadioptricError as exc:
                 static.append({"pair": f"{a} {b}", "prior_deg": prior, "failed": str(exc)})
                 continue
@@ -246,6 +247,7 @@ def run_real(data: str, out: str, *, max_rotation_deg: float | None = None, prog
         truths = board_symmetries(_rodrigues(views[a]["rvec"]), _rodrigues(views[b]["rvec"]))
         try:
             res = pose_from_detections(dets_board[a], dets_board[b], max_rotation_deg=max_rotation_deg)
+            settle_by_look(res, (images[a], images[b]), (cam, cam), (masks[a], masks[b]))
         except CatadioptricError as exc:
             board.append({"pair": f"{a} {b}", "failed": str(exc)})
             continue
