@@ -425,7 +425,7 @@ def aggregate_images(spec: dict, results: list, image_results: list) -> dict:
                     "translation_m": _q([x["translation_error_m"] for x in clear]),
                     "translation_direction_deg": _q([x["translation_direction_error_deg"] for x in clear]),
                     "over_10deg_unflagged": sum(x["rotation_error_deg"] > 10 for x in clear),
-                    **_geometry_alone(ok)}
+                    **_geometry_alone(ok), **_by_look(ok)}
             e["labels_rotation_deg"] = {
                 str(n): _q([d["rotation_error_deg"] for r in labs for d in r["draws"]
                             if abs(d["noise_px"] - n) < 1e-12 and "error" not in d and not d["ambiguous"]])
@@ -452,6 +452,15 @@ def _geometry_alone(ok: list) -> dict:
     return {"answered_geometry_alone": len(answered), "over_10deg_unflagged_geometry_alone": sum(
         (x["rotation_error_deg"] if x["turned_in_place"] else x["rotation_error_geometry_alone_deg"]) > 10
         for x in answered)}
+
+
+def _by_look(ok: list) -> dict:
+    """The runs the images' look decided (:func:`catadioptric.twoview.settle_by_look`), and of those
+    more than 10 degrees off; None when the runs carry no record of it (older results)."""
+    if not ok or any("look_decided" not in x for x in ok):
+        return {"answered_by_look": None, "over_10deg_by_look": None}
+    by = [x for x in ok if x["look_decided"]]
+    return {"answered_by_look": len(by), "over_10deg_by_look": sum(x["rotation_error_deg"] > 10 for x in by)}
 
 
 def _comparable_level(e: dict, prior: str, noises) -> tuple:
@@ -511,16 +520,20 @@ def images_markdown(spec: dict, agg_im: dict, overlays: dict, *, labels: bool = 
                     "same families (directions too)", "all right (directions too)", "rotation (deg)",
                     "translation (m)", "translation direction (deg)"], rows), ""]
     rows = [[k, p, q["runs"] - q["failed"], q["runs"] - q["failed"] - q["ambiguous"], q["over_10deg_unflagged"],
+             *(["-", "-"] if q.get("answered_by_look") is None else [q["answered_by_look"], q["over_10deg_by_look"]]),
              q["answered_geometry_alone"], q["over_10deg_unflagged_geometry_alone"]]
             for k, e in agg_im.items() for p in priors
             for q in [e["priors"][p]] if q.get("answered_geometry_alone") is not None]
     if rows:
-        L += ["### What the lines' appearance decided", "",
-              "The same runs, each family assignment also scored by the geometry alone (its lines matched again "
-              "with their sides ignored; `pose.json`'s `evidence`), held to the same bar: how many pairs each "
-              "would answer, and how many of those more than 10 degrees off.", "",
+        L += ["### What the lines' appearance and the images' look decided", "",
+              "The same runs: how many pairs were answered, of those how many the images' look decided (an answer "
+              "the geometry left ambiguous by its margin, docs/relative_pose.md \"The images' look\"), and each "
+              "family assignment also scored by the geometry alone (its lines matched again with their sides "
+              "ignored, no look; `pose.json`'s `evidence`) held to the same bar: how many pairs each would answer, "
+              "and how many of those more than 10 degrees off.", "",
               md_table(["configuration / renderer", "prior (deg)", "pairs run", "answered", "> 10 deg off",
-                        "answered, geometry alone", "> 10 deg off, geometry alone"], rows), ""]
+                        "answered by the look", "> 10 deg off, by the look", "answered, geometry alone",
+                        "> 10 deg off, geometry alone"], rows), ""]
     if labels:
         rows = []
         for k, e in agg_im.items():
