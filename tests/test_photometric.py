@@ -74,3 +74,19 @@ def test_bad_input_is_named(room):
     # nothing of B seen in A: no agreement measured
     none = np.zeros(img.shape[:2], np.uint8)
     assert np.isnan(rotation_agreement(img, img, cam, cam, [np.eye(3)], masks=(none, None))[0])
+
+
+def test_the_rotation_where_the_images_agree_best_is_found_near_a_wrong_one(room):
+    """:meth:`RotationAgreement.best_near` from a rotation 8 degrees off the turn that made image B
+    comes back to that turn (within a degree) and its agreement."""
+    from catadioptric.photometric import RotationAgreement
+    from catadioptric.pose import rotation_angle_deg
+
+    cam, img = room
+    R = _rot([0.3, -0.2, 1.0], 35)
+    img_b, seen = _turned(cam, img, R)
+    judge = RotationAgreement(img, img_b, cam, cam, masks=(None, (seen * 255).astype(np.uint8)))
+    R_off = _rot([1.0, 1.0, 0.0], 8) @ R
+    R_best, a_best = judge.best_near(R_off)
+    assert rotation_angle_deg(R_best @ R.T) < 1.0, rotation_angle_deg(R_best @ R.T)
+    assert a_best > 0.98 and a_best > judge(R_off[None])[0] + 0.2

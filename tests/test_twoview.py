@@ -289,7 +289,7 @@ def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street):
     res = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0,
                                     decisive_matching=10000.0, look=False)
     assert res.pose.ambiguous and res.pose.evidence["ambiguous_by"] == ["margin"]
-    other, low = copy.deepcopy(res), copy.deepcopy(res)
+    other, low, swap = copy.deepcopy(res), copy.deepcopy(res), copy.deepcopy(res)
     R0 = res.pose.R.copy()
     decided = settle_by_look(res, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]))
     look = res.pose.evidence["look"]
@@ -303,6 +303,21 @@ def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street):
     assert settle_by_look(low, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]), bar=0.5 * look["margin"])
     assert not low.pose.ambiguous and np.array_equal(low.pose.R, R0)
     assert low.pose.notes[0].startswith("decided by the images' look")
+    # the look's best answer need not be the geometry's first: with a wrong answer put first and the
+    # right one second (a rival refined as the first was), the look gives the right one, decisive, its
+    # candidates first, its family map, and the geometry's margin of that answer
+    j = look["candidates"][1]
+    p = swap.pose
+    right, wrong = p.candidates[0], p.candidates[j]
+    p.candidates = [wrong, right, *[c for i, c in enumerate(p.candidates) if i not in (0, j)]]
+    p.rivals = {1: copy.deepcopy(res.pose)}
+    p.R, p.ambiguous = wrong.R, True
+    p.evidence["ambiguous_by"] = ["margin"]
+    assert "look" not in p.evidence
+    assert settle_by_look(swap, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]), bar=0.5 * look["margin"])
+    assert swap.pose.evidence["look"]["best"] == 1 and not swap.pose.ambiguous
+    assert np.array_equal(swap.pose.R, R0) and swap.pose.candidates[0] is right
+    assert swap.family_map == res.family_map and np.isclose(swap.pose.margin, res.pose.margin)
     # ambiguous for another reason (a rival the geometry could not score): the look is not asked
     other.pose.evidence["ambiguous_by"] = ["margin", "unscored"]
     assert not settle_by_look(other, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]))
