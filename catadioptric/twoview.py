@@ -400,6 +400,11 @@ def image_pair_markdown(summary: dict, command: str) -> str:
                        + (", another answer first" if known(g) and g < 0 else ""))
         if ev["turned_in_place"]:
             margin += "; decided by the lines seen again unchanged (a camera turned in place)"
+        look = ev.get("look")
+        if look:
+            m = look["margin"]
+            margin += ("; decided by the images' look" if look["decided"] else "; the images' look did not decide it") \
+                + (f" (agreement margin {m:.3f} against {look['bar']:g})" if known(m) else " (a rival it cannot score)")
     std = summary["rotation_std_deg"]
     lines += [f"- verdict: {verdict} ({margin})",
               f"- rotation: {rotation_angle_deg(R):.3f} deg turn"

@@ -77,3 +77,13 @@ def test_the_image_pair_report_reads_without_none():
     unknown = image_pair_markdown(_summary(rotation_std_deg=None, translation_std=None), "c")
     assert "None" not in unknown and "its deviation not estimated" in unknown
     assert "std not estimated" in unknown
+
+
+def test_the_image_pair_report_says_what_the_look_decided():
+    ev = {"margin": 12.0, "bar": 40.0, "appearance": False, "margin_geometry_alone": None, "turned_in_place": False,
+          "look": {"margin": 0.183, "bar": 0.1, "decided": True}}
+    md = image_pair_markdown(_summary(margin=12.0, evidence=ev), "c")
+    assert "margin 12.0 against a bar of 40; decided by the images' look (agreement margin 0.183 against 0.1)" in md
+    ev["look"] = {"margin": float("nan"), "bar": 0.1, "decided": False}
+    md = image_pair_markdown(_summary(margin=12.0, ambiguous=True, evidence=ev), "c")
+    assert "the images' look did not decide it (a rival it cannot score)" in md and "nan" not in md
