@@ -111,10 +111,10 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
         if mixed is None:
             raise
         raise CatadioptricError(f"{exc} ({mixed})") from None
-    if mixed is not None:
-        res.pose.notes = [mixed, *res.pose.notes]
     if look:
         settle_by_look(res, (image_a, image_b), (cam_a, cam_b), masks)
+    if mixed is not None:
+        res.pose.notes = [mixed, *res.pose.notes]
     t2 = time.perf_counter()
     res.seconds = {"detect": t1 - t0, "pose": t2 - t1, "total": t2 - t0}
     return res

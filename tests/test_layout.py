@@ -185,7 +185,7 @@ LAYERS = [
     ["render"],
     ["dataset"],
     ["detect"],  # one image
-    ["export", "pose"],
+    ["export", "photometric", "pose"],  # photometric: two images compared under a rotation
     ["twoview"],  # two images: detect, then pose
     ["validate"],
     ["jobs", "cli_centrality", "cli_chessboard"],

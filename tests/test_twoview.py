@@ -38,6 +38,15 @@ def with_prior_alone(street):
     return relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0, joint=False)
 
 
+# the same pair's answer with a matching bar above any margin (10000), without the images' look:
+# ambiguous by its margin alone; tests that need an ambiguous answer copy it
+@pytest.fixture(scope="module")
+def held_ambiguous(street):
+    _, a, b, _, _ = street
+    return relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0,
+                                     decisive_matching=10000.0, look=False)
+
+
 def _angle(u, v):
     return np.degrees(np.arccos(np.clip(u @ v / np.linalg.norm(u) / np.linalg.norm(v), -1, 1)))
 
@@ -63,18 +72,16 @@ def test_images_alone_give_the_rotation_with_a_motion_prior(street, with_prior):
         pose_from_detections(*res.detections, covariance_scale=-1.0)
 
 
-def test_matching_without_labels_has_its_own_margin(street):
+def test_matching_without_labels_has_its_own_margin(street, with_prior_alone, held_ambiguous):
     """The margin the matching of the two images' families and lines needs (``decisive_matching``,
     above ``decisive``: its cost counts chance agreements) decides the verdict: the same answer
     is reported ambiguous, every candidate listed, when the bar is above its margin."""
     _, a, b, R_gt, _ = street
-    res = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0,
-                                    decisive_matching=200.0, look=False)
-    assert res.pose.margin >= 60.0
-    assert res.pose.ambiguous == (res.pose.margin < 200.0)
+    res = held_ambiguous
+    assert res.pose.margin >= 60.0 and res.pose.margin == with_prior_alone.pose.margin and not with_prior_alone.pose.ambiguous
+    assert res.pose.ambiguous and len(res.pose.candidates) >= 2
+    assert res.pose.evidence["bar"] == 10000.0 and res.pose.evidence["ambiguous_by"] == ["margin"]
     assert rotation_angle_deg(res.pose.R @ R_gt.T) < 0.5
-    if res.pose.ambiguous:
-        assert len(res.pose.candidates) >= 2
 
 
 def test_the_default_bar_grows_with_the_rival_assignments(with_prior):
@@ -266,17 +273,15 @@ def test_the_answer_with_families_of_both_images_must_agree_with_the_first(stree
     assert not res.pose.ambiguous and rotation_angle_deg(res.pose.R @ R_gt.T) < 0.5
 
 
-def test_no_families_are_looked_for_under_an_ambiguous_answer(street):
+def test_no_families_are_looked_for_under_an_ambiguous_answer(held_ambiguous):
     """Families found under a rotation that is not trusted would confirm it: when the answer is
     ambiguous (here forced by a matching bar above its margin) nothing is added."""
-    _, a, b, _, _ = street
-    res = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0,
-                                    decisive_matching=10000.0, look=False)
+    res = held_ambiguous
     assert res.pose.ambiguous
     assert not any("both views at once" in n for n in res.pose.notes)
 
 
-def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street):
+def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street, held_ambiguous):
     """An answer the geometry left ambiguous by its margin alone (here forced: a matching bar of
     10000) is decided by the images' look when image B agrees with A turned by the first answer
     better than by every other answer by the bar; the answer itself does not change. Any other
@@ -286,8 +291,7 @@ def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street):
     from catadioptric.twoview import LOOK_BAR, settle_by_look
 
     _, a, b, R_gt, _ = street
-    res = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0,
-                                    decisive_matching=10000.0, look=False)
+    res = copy.deepcopy(held_ambiguous)
     assert res.pose.ambiguous and res.pose.evidence["ambiguous_by"] == ["margin"]
     other, low, swap = copy.deepcopy(res), copy.deepcopy(res), copy.deepcopy(res)
     R0 = res.pose.R.copy()
