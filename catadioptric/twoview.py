@@ -239,7 +239,10 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     Each different answer among ``res.pose.candidates`` (rotations more than
     :data:`~catadioptric.pose.labelled.SAME_ANSWER_DEG` apart, the cheapest of each) is scored by
     the agreement of image B with image A turned by its rotation
-    (:func:`catadioptric.photometric.rotation_agreement`). The answer that agrees best is the
+    (:func:`catadioptric.photometric.rotation_agreement`); an answer under which too little of B is
+    seen in A to compare contradicts the lines it matched in both views and ranks last (agreement
+    taken as -1), unless a mask is given (the mask may be what hides the view: then no answer is
+    chosen). The answer that agrees best is the
     answer when it agrees better than every other by at least ``bar`` and the geometry keeps it
     (its cost within the matching's bar of the best: one of the answers the geometry could not
     tell apart, refined as the best was), and no rotation near it agrees better by ``bar``
@@ -266,16 +269,22 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
         return False
     judge = RotationAgreement(images[0], images[1], cams[0], cams[1], masks=masks)
     agree = judge(np.stack([p.candidates[k].R for k in answers]))
+    unseen = ~np.isfinite(agree)
     look = {"candidates": answers, "agreement": [float(a) for a in agree], "best": None, "margin": float("nan"),
             "nearby": None, "bar": float(bar), "decided": False}
     ev["look"] = look
-    if not np.all(np.isfinite(agree)):
+    masked = any(m is not None for m in masks)
+    if unseen.all() or (unseen.any() and masked):
         p.notes = [*p.notes, "the images' look did not decide it: some answers' rotations leave too little of B "
-                             "seen in A to compare"]
+                             "seen in A to compare" + (" (under the masks)" if masked else "")]
         return False
-    order = np.argsort(-agree, kind="stable")
+    # an answer that turns B's view out of A's (too little of B seen in A: no agreement measured) says
+    # the two views share nearly nothing, against the lines it matched in both; without masks, it
+    # ranks last (with masks, the masks may be what hides the view: then it is not scored at all)
+    score = np.where(unseen, -1.0, agree)
+    order = np.argsort(-score, kind="stable")
     k = answers[order[0]]
-    margin = float(agree[order[0]] - agree[order[1]])
+    margin = float(score[order[0]] - score[order[1]])
     look |= {"best": k, "margin": margin}
     kept = p.candidates[k].cost - p.candidates[0].cost < ev["bar"]
     refined = k == 0 or k in p.rivals
@@ -296,7 +305,8 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     note = (f"decided by the images' look: image B agrees with image A turned by "
             f"{'the best answer' if k == 0 else f'candidate {k} (within the matching bar of the best)'} "
             f"(correlation {agree[order[0]]:.3f}) better than by any of the {len(answers) - 1} other answers by "
-            f"{margin:.3f}, against a bar of {bar:g}")
+            f"{margin:.3f}, against a bar of {bar:g}"
+            + (f" ({int(unseen.sum())} of them turn B's view out of A's)" if unseen.any() else ""))
     if k != 0:
         new = p.rivals[k]
         costs = [c.cost for j, c in enumerate(p.candidates) if j != k
