@@ -103,7 +103,7 @@ def _look(res, R_gt) -> dict:
         out |= {"look_best_error_deg": rotation_angle_deg(best.R @ R_gt.T),
                 "look_best_within_bar": bool(best.cost - cost0 < res.evidence["bar"])}
         if lk["nearby"] is not None:
-            out["look_nearby_gain"] = float(lk["nearby"]["agreement"] - max(lk["agreement"]))
+            out["look_nearby_gain"] = float(lk["nearby"]["agreement"] - lk["agreement"][lk["candidates"].index(lk["best"])])
     return out
 
 
