@@ -16,7 +16,7 @@ import numpy as np
 from ._checks import CatadioptricError, as_scalar
 
 __all__ = ["ImagePairPose", "relative_pose_from_images", "pose_from_detections", "pair_overlay", "image_pair_summary",
-           "image_pair_markdown", "register", "COVARIANCE_SCALE", "LOOK_BAR", "settle_by_look"]
+           "image_pair_markdown", "register", "COVARIANCE_SCALE", "LOOK_BAR", "settle_by_look", "ranked_agreement"]
 
 
 @dataclass
@@ -67,8 +67,8 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
     families of the lines left over found in both views at once (:func:`pose_from_detections`).
     ``covariance_scale``: the answer's covariance is that of the fit times its square (default
     :data:`COVARIANCE_SCALE`, measured on rendered pairs; 1: the fit's own). ``look``: an answer that
-    only its margin left ambiguous is decided by the images' look when that agrees with the
-    geometry's best answer (:func:`settle_by_look`). Raises :class:`CatadioptricError` naming the
+    only its margin left ambiguous is decided by the images' look where it clearly prefers one of
+    the answers the geometry keeps (:func:`settle_by_look`). Raises :class:`CatadioptricError` naming the
     cause when a view has fewer than two families.
     """
     from .detect import detect_lines
@@ -248,8 +248,7 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     tell apart, refined as the best was), and no rotation near it agrees better by ``bar``
     (:meth:`~catadioptric.photometric.RotationAgreement.best_near`: the answer is where the images
     agree, not only the best of the answers). ``res`` then holds it, decisive, its candidates first;
-    its ``margin`` stays the geometry's (negative when the geometry ranked another first). A rival
-    the images cannot score (too little of B seen in A under it) is no evidence. What was measured
+    its ``margin`` stays the geometry's (negative when the geometry ranked another first). What was measured
     goes to ``pose.evidence["look"]`` (each answer's candidate index and agreement, the best one's,
     its margin, the best agreement near it and how far, the bar, whether it decided) and the notes. Returns whether it decided."""
     from .photometric import RotationAgreement
@@ -274,14 +273,11 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
             "nearby": None, "bar": float(bar), "decided": False}
     ev["look"] = look
     masked = any(m is not None for m in masks)
-    if unseen.all() or (unseen.any() and masked):
+    score = ranked_agreement(agree, masked=masked)
+    if score is None:
         p.notes = [*p.notes, "the images' look did not decide it: some answers' rotations leave too little of B "
                              "seen in A to compare" + (" (under the masks)" if masked else "")]
         return False
-    # an answer that turns B's view out of A's (too little of B seen in A: no agreement measured) says
-    # the two views share nearly nothing, against the lines it matched in both; without masks, it
-    # ranks last (with masks, the masks may be what hides the view: then it is not scored at all)
-    score = np.where(unseen, -1.0, agree)
     order = np.argsort(-score, kind="stable")
     k = answers[order[0]]
     margin = float(score[order[0]] - score[order[1]])
@@ -308,16 +304,40 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
             f"{margin:.3f}, against a bar of {bar:g}"
             + (f" ({int(unseen.sum())} of them turn B's view out of A's)" if unseen.any() else ""))
     if k != 0:
-        new = p.rivals[k]
-        costs = [c.cost for j, c in enumerate(p.candidates) if j != k
-                 and rotation_angle_deg(c.R @ p.candidates[k].R.T) > SAME_ANSWER_DEG]
-        new.candidates = [p.candidates[k], *[c for j, c in enumerate(p.candidates) if j != k]]
-        new.margin = float(min(costs) - p.candidates[k].cost)
-        new.evidence, new.notes = ev, [*p.notes, *new.notes]
-        res.pose, res.family_map, p = new, _family_map(new), new
+        p = _take_rival(res, k)
     p.ambiguous = False
     p.notes = [note, *p.notes]
     return True
+
+
+def ranked_agreement(agreement, *, masked: bool):
+    """The answers' agreements (:func:`settle_by_look`) as they are ranked: an answer under which too
+    little of B is seen in A to compare (NaN) says the two views share nearly nothing, against the
+    lines it matched in both, and ranks last (-1) when no mask is given; with a mask, the mask may be
+    what hides the view, and such an answer leaves nothing to rank (None), as when no answer is
+    measured at all."""
+    a = np.asarray(agreement, dtype=float)
+    unseen = ~np.isfinite(a)
+    if unseen.all() or (unseen.any() and masked):
+        return None
+    return np.where(unseen, -1.0, a)
+
+
+def _take_rival(res: ImagePairPose, k: int):
+    """``res`` made to hold its pose's refined rival ``k`` (``pose.rivals[k]``) as the answer: its
+    candidate first, the geometry's margin of that answer over the next different one, the first
+    answer's evidence and notes before the rival's own. Returns the new pose."""
+    from .pose import rotation_angle_deg
+    from .pose.labelled import SAME_ANSWER_DEG
+
+    p, new = res.pose, res.pose.rivals[k]
+    costs = [c.cost for j, c in enumerate(p.candidates) if j != k
+             and rotation_angle_deg(c.R @ p.candidates[k].R.T) > SAME_ANSWER_DEG]
+    new.candidates = [p.candidates[k], *[c for j, c in enumerate(p.candidates) if j != k]]
+    new.margin = float(min(costs) - p.candidates[k].cost)
+    new.evidence, new.notes = p.evidence, [*p.notes, *new.notes]
+    res.pose, res.family_map = new, _family_map(new)
+    return new
 
 
 def _finite_std(pose) -> float:

@@ -90,3 +90,4 @@ def test_the_rotation_where_the_images_agree_best_is_found_near_a_wrong_one(room
     R_best, a_best = judge.best_near(R_off)
     assert rotation_angle_deg(R_best @ R.T) < 1.0, rotation_angle_deg(R_best @ R.T)
     assert a_best > 0.98 and a_best > judge(R_off[None])[0] + 0.2
+

@@ -423,3 +423,16 @@ def test_a_grey_and_a_colour_image_of_one_scene_give_the_pose(street):
     assert "both detected on luminance" in res.pose.notes[0]
     err = rotation_angle_deg(res.pose.R @ R_gt.T)
     assert res.pose.ambiguous or err < 1.0, (err, res.pose.margin)
+
+
+def test_an_answer_that_turns_b_out_of_view_ranks_last_without_masks():
+    """An answer under which too little of B is seen in A to compare (NaN) contradicts the lines it
+    matched in both views: it ranks last without masks; with a mask (which may be what hides the
+    view) nothing is ranked, nor when no answer is measured."""
+    from catadioptric.twoview import ranked_agreement
+
+    a = [0.42, np.nan, 0.61]
+    np.testing.assert_array_equal(ranked_agreement(a, masked=False), [0.42, -1.0, 0.61])
+    assert ranked_agreement(a, masked=True) is None
+    assert ranked_agreement([np.nan, np.nan], masked=False) is None
+    np.testing.assert_array_equal(ranked_agreement([0.3, 0.2], masked=True), [0.3, 0.2])
