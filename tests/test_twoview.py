@@ -38,13 +38,14 @@ def with_prior_alone(street):
     return relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0, joint=False)
 
 
-# the same pair's answer with a matching bar above any margin (10000), without the images' look:
-# ambiguous by its margin alone; tests that need an ambiguous answer copy it
+# the same pair's answer with a matching bar above any margin (10000), without the images' look
+# (from the same detections: pose_from_detections has no look): ambiguous by its margin alone;
+# tests that need an ambiguous answer copy it
 @pytest.fixture(scope="module")
-def held_ambiguous(street):
-    _, a, b, _, _ = street
-    return relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0,
-                                     decisive_matching=10000.0, look=False)
+def held_ambiguous(with_prior_alone):
+    from catadioptric.twoview import pose_from_detections
+
+    return pose_from_detections(*with_prior_alone.detections, max_rotation_deg=60.0, decisive_matching=10000.0)
 
 
 def _angle(u, v):
