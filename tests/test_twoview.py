@@ -24,18 +24,28 @@ def street(tmp_path_factory):
     return out, a, b, R_gt, b["pose"].t - R_gt @ a["pose"].t
 
 
-# The pose of the pair with the prior of 60 degrees, with and without the families of both images
-# (each computed once: several tests read the same answer; none of them changes it)
-@pytest.fixture(scope="module")
-def with_prior(street):
-    _, a, b, _, _ = street
-    return relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0)
-
-
+# The pose of the pair with the prior of 60 degrees, without and with the families of both images
+# (each computed once: several tests read the same answer; none of them changes it). The pair is
+# detected once, by the first: the others start from its detections (pose_from_detections; the
+# images' look as relative_pose_from_images asks it). The CLI's test runs the whole path again.
 @pytest.fixture(scope="module")
 def with_prior_alone(street):
     _, a, b, _, _ = street
     return relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0, joint=False)
+
+
+def _from_detections(street, alone, **options):
+    from catadioptric.twoview import pose_from_detections, settle_by_look
+
+    _, a, b, _, _ = street
+    res = pose_from_detections(*alone.detections, **options)
+    settle_by_look(res, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]))
+    return res
+
+
+@pytest.fixture(scope="module")
+def with_prior(street, with_prior_alone):
+    return _from_detections(street, with_prior_alone, max_rotation_deg=60.0)
 
 
 # the same pair's answer with a matching bar above any margin (10000), without the images' look
@@ -52,7 +62,7 @@ def _angle(u, v):
     return np.degrees(np.arccos(np.clip(u @ v / np.linalg.norm(u) / np.linalg.norm(v), -1, 1)))
 
 
-def test_images_alone_give_the_rotation_with_a_motion_prior(street, with_prior):
+def test_images_alone_give_the_rotation_with_a_motion_prior(street, with_prior, with_prior_alone):
     _, a, b, R_gt, t_gt = street
     res = with_prior
     assert not res.pose.ambiguous
@@ -64,9 +74,12 @@ def test_images_alone_give_the_rotation_with_a_motion_prior(street, with_prior):
     # independent), the notes say so; covariance_scale=1 gives the fit's own
     from catadioptric.twoview import COVARIANCE_SCALE, pose_from_detections
 
-    own = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0, covariance_scale=1)
-    assert np.array_equal(own.pose.R, res.pose.R)
-    np.testing.assert_allclose(res.pose.cov, own.pose.cov * COVARIANCE_SCALE**2, rtol=1e-12)
+    alone = with_prior_alone
+    own = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0, joint=False,
+                                    covariance_scale=1)
+    assert np.array_equal(own.pose.R, alone.pose.R)
+    np.testing.assert_allclose(alone.pose.cov, own.pose.cov * COVARIANCE_SCALE**2, rtol=1e-12)
+    assert any("covariance: the fit's times" in n for n in alone.pose.notes)
     assert any("covariance: the fit's times" in n for n in res.pose.notes)
     assert not any("covariance: the fit's times" in n for n in own.pose.notes)
     with pytest.raises(cd.CatadioptricError, match="covariance_scale"):
@@ -111,9 +124,11 @@ def test_matching_bar():
             matching_bar(bad)
 
 
-def test_without_a_prior_the_answer_is_right_or_reported_ambiguous(street):
+def test_without_a_prior_the_answer_is_right_or_reported_ambiguous(street, with_prior_alone):
+    """Without the families of both images (joint=False: they only refine a decisive answer, tested
+    with the prior above)."""
     _, a, b, R_gt, _ = street
-    res = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"])
+    res = _from_detections(street, with_prior_alone, joint=False)
     err = rotation_angle_deg(res.pose.R @ R_gt.T)
     assert res.pose.ambiguous or err < 2.0, (err, res.pose.margin)
     if res.pose.ambiguous:
@@ -122,7 +137,7 @@ def test_without_a_prior_the_answer_is_right_or_reported_ambiguous(street):
 
 def test_scored_against_the_labels(street):
     folder, *_ = street
-    r = evaluate_image_pair(folder, ("A", "B"), priors=(60.0,))
+    r = evaluate_image_pair(folder, ("A", "B"), priors=(60.0,), joint=False)
     run = r["runs"][0]
     assert run["rotation_error_deg"] < 0.5 and not run["ambiguous"]
     assert run["families_right"], run["matched"]
@@ -266,7 +281,7 @@ def test_the_answer_with_families_of_both_images_must_agree_with_the_first(stree
     _, a, b, R_gt, _ = street
     alone = with_prior_alone
     monkeypatch.setattr(tv, "_JOINT_AGREE_SIGMA", 1e-9)
-    res = relative_pose_from_images(a["beauty"], b["beauty"], a["camera"], max_rotation_deg=60.0)
+    res = _from_detections(street, alone, max_rotation_deg=60.0)
     note = next(n for n in res.pose.notes if "both views at once" in n)
     assert "not kept, the pose estimated again with them turns" in note and "combined deviations" in note
     assert np.array_equal(res.pose.R, alone.pose.R) and res.family_map == alone.family_map
@@ -420,7 +435,7 @@ def test_a_grey_and_a_colour_image_of_one_scene_give_the_pose(street):
 
     _, a, b, R_gt, _ = street
     grey_b = cv2.cvtColor(np.ascontiguousarray(b["beauty"]), cv2.COLOR_RGB2GRAY)
-    res = relative_pose_from_images(a["beauty"], grey_b, a["camera"], max_rotation_deg=60.0)
+    res = relative_pose_from_images(a["beauty"], grey_b, a["camera"], max_rotation_deg=60.0, joint=False)
     assert "both detected on luminance" in res.pose.notes[0]
     err = rotation_angle_deg(res.pose.R @ R_gt.T)
     assert res.pose.ambiguous or err < 1.0, (err, res.pose.margin)
