@@ -264,6 +264,7 @@ def map_coefficients(h, exps, qmap, exact):
     from ._kernels import monomial_map
 
     h = np.ascontiguousarray(h, dtype=float)
+    qmap = np.ascontiguousarray(qmap, dtype=float)  # one compiled layout (a slice would compile another)
     Q = np.empty((len(h), qmap.shape[1]))
     weak = np.empty(len(h), dtype=bool)
     # a bound of the terms' size: a monomial of degree d is at most max|h_i|^d
