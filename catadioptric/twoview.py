@@ -284,6 +284,26 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     look |= {"best": k, "margin": margin}
     kept = p.candidates[k].cost - p.candidates[0].cost < ev["bar"]
     refined = k == 0 or k in p.rivals
+    if kept and not refined and margin >= bar and p.refine_rival(k):
+        # a rival beyond those refined with the answer, refined now that the look ranks it first: its
+        # refined rotation is scored again, and must still lead by the bar
+        refined = True
+        i = int(order[0])
+        agree[i] = judge(p.candidates[k].R[None])[0]
+        look["agreement"][i] = float(agree[i])
+        look["refined_now"] = k
+        score = ranked_agreement(agree, masked=masked)
+        if score is None:
+            p.notes = [*p.notes, f"the images' look did not decide it: its best answer (candidate {k}), refined, "
+                                 "leaves too little of B seen in A to compare"]
+            return False
+        order = np.argsort(-score, kind="stable")
+        margin = float(score[order[0]] - score[order[1]])
+        look["margin"] = margin
+        if answers[order[0]] != k:
+            p.notes = [*p.notes, f"the images' look did not decide it: its best answer (candidate {k}), refined, "
+                                 f"no longer leads (candidate {answers[order[0]]} does)"]
+            return False
     gain = apart = float("nan")
     if margin >= bar and kept and refined:
         R_near, a_near = judge.best_near(p.candidates[k].R)

@@ -344,6 +344,86 @@ def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street, 
     assert other.pose.ambiguous and "look" not in other.pose.evidence
 
 
+def _room_pair(refined_rivals=None, monkeypatch=None):
+    """A camera that moved in a room (tests/test_pure_rotation.py's central Mei model, 0.5 px), its
+    lines unlabelled (families 0-2 in A, 10-12 in B): the pose with a matching bar out of reach, so
+    ambiguous, every answer within the bar (cheap: a central rig's labelled path)."""
+    from scipy.spatial.transform import Rotation
+    from test_pure_rotation import _view
+
+    import catadioptric.pose.unlabelled as unlabelled
+    from catadioptric.pose import ViewLines, relative_pose
+
+    rng = np.random.default_rng(6)
+    R_b = Rotation.from_euler("z", 8.0, degrees=True).as_matrix()
+    views = []
+    for R, c, off in ((np.eye(3), np.zeros(3), 0), (R_b, np.array([0.8, 0.3, 0.0]), 10)):
+        v = _view(R, c, 0.5, rng)
+        views.append(ViewLines(v.cam, v.uv, [off + "xyz".index(f) for f in v.family], None))
+    if refined_rivals is not None:
+        monkeypatch.setattr(unlabelled, "_REFINED_RIVALS", refined_rivals)
+    return relative_pose(*views, decisive_matching=1e9)
+
+
+def test_a_rival_beyond_those_refined_is_refined_when_asked_as_it_would_have_been(monkeypatch):
+    """An ambiguous answer's rivals within the bar beyond the first three refined keep what refining
+    them takes (``rival_inputs``); ``refine_rival`` then gives the pose refining them with the
+    answer would have given, to the bit (here: that rival refined with the answer, the cap raised by one)."""
+    p = _room_pair()
+    assert p.ambiguous and sorted(p.rivals) == [1, 2, 3] and p.rival_inputs
+    assert not set(p.rival_inputs) & set(p.rivals)
+    k = min(p.rival_inputs)
+    R_before, cost = p.candidates[k].R.copy(), p.candidates[k].cost
+    assert p.refine_rival(k) and k in p.rivals and k not in p.rival_inputs
+    c = p.candidates[k]
+    assert np.array_equal(c.R, p.rivals[k].R) and c.cost == cost and c.cov is not None
+    assert not np.array_equal(c.R, R_before)  # refined: not the assignment's rotation any more
+    assert p.refine_rival(k) and not p.refine_rival(0) and not p.refine_rival(10**6)
+    eager = _room_pair(len(p.rivals), monkeypatch)  # the three, and k
+    assert k in eager.rivals and k not in eager.rival_inputs
+    assert np.array_equal(eager.candidates[k].R, c.R) and np.array_equal(eager.rivals[k].t, p.rivals[k].t)
+    assert np.array_equal(eager.rivals[k].cov, p.rivals[k].cov)
+
+
+def test_the_look_refines_the_rival_it_ranks_first_and_scores_it_again(monkeypatch):
+    """When the images' look ranks first a rival that was not refined with the answer, the rival is
+    refined then, scored again at its refined rotation, and taken only if it still leads by the bar
+    (the images' agreements faked here: the look's measure itself is tested above)."""
+    import copy
+
+    from catadioptric.photometric import RotationAgreement
+    from catadioptric.twoview import ImagePairPose, settle_by_look
+
+    pose = _room_pair()
+    assert pose.evidence["ambiguous_by"] == ["margin"]
+    k = min(pose.rival_inputs)
+    R_k = pose.candidates[k].R.copy()
+    calls = []
+
+    def agreement(self, rotations):  # the rival k agrees best, the others less
+        calls.append(len(rotations))
+        near = [rotation_angle_deg(R @ R_k.T) < 5.0 for R in rotations]
+        return np.where(near, 0.9 if len(calls) == 1 or not lose else 0.1, 0.3)
+
+    monkeypatch.setattr(RotationAgreement, "__init__", lambda self, *args, **kwargs: None)
+    monkeypatch.setattr(RotationAgreement, "__call__", agreement)
+    monkeypatch.setattr(RotationAgreement, "best_near", lambda self, R, **kw: (R, 0.9))
+    for lose in (False, True):
+        calls.clear()
+        res = ImagePairPose(copy.deepcopy(pose), (None, None), {})
+        decided = settle_by_look(res, (None, None), (None, None))
+        look = res.pose.evidence["look"]
+        assert look["refined_now"] == k and calls[1:] == [1], (look, calls)
+        if lose:  # refined and scored again, it no longer leads: nothing decided
+            assert not decided and res.pose.ambiguous and "no longer leads" in res.pose.notes[-1]
+            assert k in res.pose.rivals and np.array_equal(res.pose.candidates[k].R, res.pose.rivals[k].R)
+        else:  # it leads still: the refined rival is the answer, decisive, its candidate first
+            assert decided and not res.pose.ambiguous and look["best"] == k
+            assert np.array_equal(res.pose.R, res.pose.candidates[0].R)
+            assert rotation_angle_deg(res.pose.R @ R_k.T) < 5.0 and not np.array_equal(res.pose.R, R_k)
+            assert res.family_map and set(res.family_map) <= {10, 11, 12}
+
+
 # --------------------------------------------------------------------------- issue 39, item 2
 def _unlabelled_pair():
     from test_relative_pose import _pair

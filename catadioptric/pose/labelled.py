@@ -41,7 +41,7 @@ from .scale import ScaleOptions, refine_far_or_free, scale_by_search
 from .signs import sign_candidates
 from .translation import ray_depths, triangulate_line
 
-__all__ = ["Candidate", "RelativePose", "PoseOptions", "labelled_pose", "MIN_MEETINGS", "WEAK_BAR_PER_PIXEL",
+__all__ = ["Candidate", "RelativePose", "RivalInputs", "PoseOptions", "labelled_pose", "MIN_MEETINGS", "WEAK_BAR_PER_PIXEL",
            "SAME_ANSWER_DEG"]
 
 _FITS = 4.0  # a refinement fits the pixels when its robust cost is at most this per pixel (about 2 sigma)
@@ -171,6 +171,31 @@ class RelativePose:
     #: without labels and ambiguous, the rivals refined as the answer was: ``{candidate index:
     #: RelativePose}`` (empty otherwise), so that another cue may pick one of them
     rivals: dict = field(default_factory=dict, repr=False)
+    #: without labels and ambiguous, the other rivals within the bar, not refined yet: ``{candidate
+    #: index: RivalInputs}``, for :meth:`refine_rival`
+    rival_inputs: dict = field(default_factory=dict, repr=False)
+
+    def refine_rival(self, k: int) -> bool:
+        """Refine candidate ``k`` as the answer was (the labelled path with its own assignment and
+        matched lines), when it is a rival within the bar not refined yet (``rival_inputs``): its
+        candidate then takes the refined ``R``, ``t`` and covariance (its cost stays the matching's)
+        and ``rivals[k]`` the refined pose. Returns whether ``k`` is refined (already, or now)."""
+        if k in self.rivals:
+            return True
+        inputs = self.rival_inputs.pop(k, None)
+        if inputs is None:
+            return False
+        from threadpoolctl import threadpool_limits
+
+        try:
+            with threadpool_limits(1):  # as relative_pose computes the answer and its rivals
+                r = labelled_pose(inputs.view_a, inputs.view_b, inputs.ends, inputs.opts, fitted=inputs.fitted)
+        except CatadioptricError:
+            return False
+        c = self.candidates[k]
+        self.candidates[k] = Candidate(c.signs, r.R, r.t, c.cost, c.direction_cost, r.cov, c.fit)
+        self.rivals[k] = r
+        return True
 
     @property
     def translation_observable(self) -> bool:
@@ -190,6 +215,19 @@ class RelativePose:
         if self.cov is None:
             return float("nan")
         return float(np.sqrt(max(np.trace(self.cov[3:, 3:]), 0.0)))
+
+
+@dataclass
+class RivalInputs:
+    """What refining a rival answer takes (:meth:`RelativePose.refine_rival`): the two views
+    relabelled by its assignment and matched lines, its families' matched ``ends``, each view's
+    family estimates ``fitted`` and the pose's options."""
+
+    view_a: ViewLines
+    view_b: ViewLines
+    ends: dict
+    fitted: tuple
+    opts: PoseOptions
 
 
 def _subsample(mask, k):

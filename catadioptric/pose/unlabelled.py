@@ -15,7 +15,7 @@ from .._checks import CatadioptricError
 from . import matching
 from .central import Parallax
 from .families import ViewLines, fit_view_families, is_central
-from .labelled import SAME_ANSWER_DEG, Candidate, PoseOptions, RelativePose, labelled_pose
+from .labelled import SAME_ANSWER_DEG, Candidate, PoseOptions, RelativePose, RivalInputs, labelled_pose
 from .rotation import rotation_angle_deg
 from .static import static_rotation
 
@@ -184,13 +184,13 @@ def _refine_rivals(res, scored, bar: float, views: tuple, opts: PoseOptions) -> 
     """An ambiguous answer's rivals within ``bar`` of the best (at most ``_REFINED_RIVALS``, each a
     different answer) refined through the labelled path with their own assignment and matched lines;
     their candidates in ``res`` take the refined ``R``, ``t`` and covariance (their cost stays the
-    matching's, so the ranking does not change) and ``res.rivals`` each refined pose. Returns how
-    many were refined."""
+    matching's, so the ranking does not change) and ``res.rivals`` each refined pose. The rivals
+    within the bar beyond those keep what refining them takes (``res.rival_inputs``), for a later cue
+    that ranks one of them first (:meth:`~catadioptric.pose.labelled.RelativePose.refine_rival`).
+    Returns how many were refined."""
     view_a, view_b, ea, eb = views
     best_score, done = scored[0][0], [res.R]
     for k in range(1, len(scored)):
-        if len(done) > _REFINED_RIVALS:
-            break
         score, m, lm = scored[k]
         if not np.isfinite(score) or score - best_score >= bar or len(lm.pairs) < 2:
             continue
@@ -198,6 +198,9 @@ def _refine_rivals(res, scored, bar: float, views: tuple, opts: PoseOptions) -> 
             continue
         va, vb, ends = _relabelled(view_a, view_b, ea, eb, m, lm)
         fitted = (ea, {a: replace(eb[b], key=a) for b, (a, _) in m.mapping.items()})
+        if len(done) > _REFINED_RIVALS:
+            res.rival_inputs[k] = RivalInputs(va, vb, ends, fitted, opts)
+            continue
         try:
             r = labelled_pose(va, vb, ends, opts, fitted=fitted)
         except CatadioptricError:
