@@ -369,6 +369,8 @@ def test_a_rival_beyond_those_refined_is_refined_when_asked_as_it_would_have_bee
     """An ambiguous answer's rivals within the bar beyond the first three refined keep what refining
     them takes (``rival_inputs``); ``refine_rival`` then gives the pose refining them with the
     answer would have given, to the bit (here: that rival refined with the answer, the cap raised by one)."""
+    import pickle
+
     p = _room_pair()
     assert p.ambiguous and sorted(p.rivals) == [1, 2, 3] and p.rival_inputs
     assert not set(p.rival_inputs) & set(p.rivals)
@@ -379,6 +381,10 @@ def test_a_rival_beyond_those_refined_is_refined_when_asked_as_it_would_have_bee
     assert np.array_equal(c.R, p.rivals[k].R) and c.cost == cost and c.cov is not None
     assert not np.array_equal(c.R, R_before)  # refined: not the assignment's rotation any more
     assert p.refine_rival(k) and not p.refine_rival(0) and not p.refine_rival(10**6)
+    # a pose pickles (its rivals' inputs hold cameras that need not): without them, nothing to refine from
+    q = pickle.loads(pickle.dumps(p))
+    j = min(p.rival_inputs)
+    assert q.rival_inputs[j] is None and not q.refine_rival(j) and np.array_equal(q.candidates[k].R, c.R)
     eager = _room_pair(len(p.rivals), monkeypatch)  # the three, and k
     assert k in eager.rivals and k not in eager.rival_inputs
     assert np.array_equal(eager.candidates[k].R, c.R) and np.array_equal(eager.rivals[k].t, p.rivals[k].t)

@@ -172,7 +172,7 @@ class RelativePose:
     #: RelativePose}`` (empty otherwise), so that another cue may pick one of them
     rivals: dict = field(default_factory=dict, repr=False)
     #: without labels and ambiguous, the other rivals within the bar, not refined yet: ``{candidate
-    #: index: RivalInputs}``, for :meth:`refine_rival`
+    #: index: RivalInputs}``, for :meth:`refine_rival` (None each in a pose that was pickled)
     rival_inputs: dict = field(default_factory=dict, repr=False)
 
     def refine_rival(self, k: int) -> bool:
@@ -183,7 +183,7 @@ class RelativePose:
         if k in self.rivals:
             return True
         inputs = self.rival_inputs.pop(k, None)
-        if inputs is None:
+        if inputs is None:  # not a rival within the bar, or a pose that was pickled
             return False
         from threadpoolctl import threadpool_limits
 
@@ -228,6 +228,22 @@ class RivalInputs:
     ends: dict
     fitted: tuple
     opts: PoseOptions
+
+    # the views hold their cameras, which need not pickle (a solver's local functions): a pickled
+    # pose keeps no inputs (``refine_rival`` then returns False); a copy shares them (never changed)
+    def __reduce__(self):
+        return (_no_inputs, ())
+
+    def __copy__(self):
+        return self
+
+    def __deepcopy__(self, memo):
+        return self
+
+
+def _no_inputs():
+    """What a pickled :class:`RivalInputs` becomes: nothing to refine from."""
+    return None
 
 
 def _subsample(mask, k):
