@@ -41,8 +41,8 @@ from .scale import ScaleOptions, refine_far_or_free, scale_by_search
 from .signs import sign_candidates
 from .translation import ray_depths, triangulate_line
 
-__all__ = ["Candidate", "RelativePose", "RivalInputs", "PoseOptions", "labelled_pose", "MIN_MEETINGS", "WEAK_BAR_PER_PIXEL",
-           "SAME_ANSWER_DEG"]
+__all__ = ["Candidate", "RelativePose", "RivalInputs", "PoseOptions", "labelled_pose", "MIN_MEETINGS",
+           "WEAK_BAR_PER_PIXEL", "SAME_ANSWER_DEG"]
 
 _FITS = 4.0  # a refinement fits the pixels when its robust cost is at most this per pixel (about 2 sigma)
 #: a central pair shows no parallax when at least this many lines, and at least as many as the lines a
