@@ -198,17 +198,9 @@ def _refine_rivals(res, scored, bar: float, views: tuple, opts: PoseOptions) -> 
             continue
         va, vb, ends = _relabelled(view_a, view_b, ea, eb, m, lm)
         fitted = (ea, {a: replace(eb[b], key=a) for b, (a, _) in m.mapping.items()})
-        if len(done) > _REFINED_RIVALS:
-            res.rival_inputs[k] = RivalInputs(va, vb, ends, fitted, opts)
-            continue
-        try:
-            r = labelled_pose(va, vb, ends, opts, fitted=fitted)
-        except CatadioptricError:
-            continue
-        c = res.candidates[k]
-        res.candidates[k] = Candidate(c.signs, r.R, r.t, c.cost, c.direction_cost, r.cov, lm)
-        res.rivals[k] = r
-        done.append(r.R)
+        res.rival_inputs[k] = RivalInputs(va, vb, ends, fitted, opts)
+        if len(done) <= _REFINED_RIVALS and res.refine_rival(k):
+            done.append(res.rivals[k].R)
     return len(done) - 1
 
 
