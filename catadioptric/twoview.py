@@ -51,7 +51,7 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
                               min_pixels: int = 30, max_rotation_deg: float | None = None, decisive: float = 25.0,
                               decisive_matching: float | None = None, seed: int = 0, joint: bool = True,
                               covariance_scale: float | None = None, masks=(None, None),
-                              look: bool = True) -> ImagePairPose:
+                              look: bool = True, calibration_rms_px: float = 0.0) -> ImagePairPose:
     """The relative pose of two views from their images alone.
 
     ``image_a``, ``image_b``: arrays (RGB or grey; uint8, uint16 or float in [0, 1]) taken by
@@ -68,7 +68,8 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
     ``covariance_scale``: the answer's covariance is that of the fit times its square (default
     :data:`COVARIANCE_SCALE`, measured on rendered pairs; 1: the fit's own). ``look``: an answer that
     only its margin left ambiguous is decided by the images' look where it clearly prefers one of
-    the answers the geometry keeps (:func:`settle_by_look`). Raises :class:`CatadioptricError` naming the
+    the answers the geometry keeps (:func:`settle_by_look`). ``calibration_rms_px``: the cameras'
+    calibration rms in pixels (see :func:`catadioptric.pose.relative_pose`; 0 for a rendered rig). Raises :class:`CatadioptricError` naming the
     cause when a view has fewer than two families.
     """
     from .detect import detect_lines
@@ -106,7 +107,7 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
     try:
         res = pose_from_detections(dets[0], dets[1], min_pixels=min_pixels, max_rotation_deg=max_rotation_deg,
                                    decisive=decisive, decisive_matching=decisive_matching, seed=seed, joint=joint,
-                                   covariance_scale=covariance_scale)
+                                   covariance_scale=covariance_scale, calibration_rms_px=calibration_rms_px)
     except CatadioptricError as exc:
         if mixed is None:
             raise
@@ -122,7 +123,8 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
 
 def pose_from_detections(det_a, det_b, *, min_pixels: int = 30, max_rotation_deg: float | None = None,
                          decisive: float = 25.0, decisive_matching: float | None = None, seed: int = 0,
-                         joint: bool = True, covariance_scale: float | None = None) -> ImagePairPose:
+                         joint: bool = True, covariance_scale: float | None = None,
+                         calibration_rms_px: float = 0.0) -> ImagePairPose:
     """The relative pose from two detections (:class:`catadioptric.detect.DetectedLines`); the
     options are those of :func:`relative_pose_from_images`.
 
@@ -143,7 +145,8 @@ def pose_from_detections(det_a, det_b, *, min_pixels: int = 30, max_rotation_deg
 
     scale = COVARIANCE_SCALE if covariance_scale is None else as_scalar(covariance_scale, "covariance_scale",
                                                                         positive=True)
-    res = _pose_from_detections(det_a, det_b, min_pixels, max_rotation_deg, decisive, decisive_matching, seed, joint)
+    res = _pose_from_detections(det_a, det_b, min_pixels, max_rotation_deg, decisive, decisive_matching, seed, joint,
+                                calibration_rms_px)
     p = res.pose
     if scale != 1.0 and p.cov is not None:
         p.cov = p.cov * scale**2
@@ -152,7 +155,8 @@ def pose_from_detections(det_a, det_b, *, min_pixels: int = 30, max_rotation_deg
     return res
 
 
-def _pose_from_detections(det_a, det_b, min_pixels, max_rotation_deg, decisive, decisive_matching, seed, joint):
+def _pose_from_detections(det_a, det_b, min_pixels, max_rotation_deg, decisive, decisive_matching, seed, joint,
+                          calibration_rms_px):
     from .detect.joint_families import joint_families, with_families
     from .pose import relative_pose, rotation_angle_deg
 
@@ -169,7 +173,7 @@ def _pose_from_detections(det_a, det_b, min_pixels, max_rotation_deg, decisive, 
                     f"({len(d)} lines detected, {int(np.sum(d.family >= 0))} in a family, {len(v.uv)} of them "
                     f"with {min_pixels} pixels or more)")
         return relative_pose(views[0], views[1], seed=seed, decisive=decisive, max_rotation_deg=max_rotation_deg,
-                             decisive_matching=decisive_matching)
+                             decisive_matching=decisive_matching, calibration_rms_px=calibration_rms_px)
 
     pose = estimate(dets)
     fmap = _family_map(pose)
@@ -525,7 +529,8 @@ def _run(args) -> int:
     res = relative_pose_from_images(images[0], images[1], cam_a, cam_b, detect_options=opts,
                                     min_pixels=args.min_pixels, max_rotation_deg=args.max_rotation,
                                     decisive=args.decisive, decisive_matching=args.decisive_matching,
-                                    joint=not args.no_joint_families, masks=masks, look=not args.no_look)
+                                    joint=not args.no_joint_families, masks=masks, look=not args.no_look,
+                                    calibration_rms_px=args.calibration_rms)
     os.makedirs(args.out, exist_ok=True)
     summary = image_pair_summary(res) | {"images": [os.path.abspath(args.image_a), os.path.abspath(args.image_b)],
                                          "rig": [args.rig, args.rig_b or args.rig]}
@@ -546,7 +551,7 @@ def _run(args) -> int:
 
 
 def register(sub) -> None:
-    from .cliargs import CALIBRATION_RIG_HELP, positive_float, positive_int
+    from .cliargs import CALIBRATION_RIG_HELP, nonnegative_float, positive_float, positive_int
     from .detect.detector import PRESETS
 
     p = sub.add_parser("relative-pose", help="relative pose from two images alone (no labels)",
@@ -570,6 +575,10 @@ def register(sub) -> None:
                    help="prior: the views turn by at most DEG degrees (rules out the symmetric answers of a "
                         "Manhattan scene; default: none, such answers are reported ambiguous)")
     p.add_argument("--min-pixels", type=positive_int, default=30, help="shortest line used, pixels (default 30)")
+    p.add_argument("--calibration-rms", type=nonnegative_float, default=0.0, metavar="PX",
+                   help="the calibration's reprojection rms in pixels, as its tool reports it: an error the lines of "
+                        "a family share, added to each family's direction (default 0: an exact model, as a rendered "
+                        "rig's; docs/cameras.md)")
     p.add_argument("--decisive", type=positive_float, default=25.0,
                    help="margin (chi-square units) the best answer needs over the next (default 25)")
     p.add_argument("--decisive-matching", type=positive_float, default=None,

@@ -182,6 +182,9 @@ def test_errors_name_their_cause():
     with pytest.raises(cd.CatadioptricError, match=r"model_error_px: expected a non-negative number of pixels, "
                                                    r"got -1.0"):
         relative_pose(va, vb, model_error_px=-1)
+    with pytest.raises(cd.CatadioptricError, match=r"calibration_rms_px: expected a non-negative number of pixels, "
+                                                   r"got -0.5"):
+        relative_pose(va, vb, calibration_rms_px=-0.5)
 
 
 def test_a_model_error_is_an_error_every_pixel_of_a_line_shares():
@@ -199,6 +202,26 @@ def test_a_model_error_is_an_error_every_pixel_of_a_line_shares():
         added = eps**2 * (np.eye(3) - n[:, :, None] * n[:, None, :])
         assert np.allclose(e1[k].normal_covs - e0[k].normal_covs, added, rtol=1e-9, atol=1e-20)
         assert np.trace(e1[k].cov) > np.trace(e0[k].cov) + 0.5 * eps**2 / len(n)
+
+
+def test_a_calibrations_rms_is_an_error_every_line_of_a_family_shares():
+    """``calibration_rms_px`` adds ``(e * rad_per_px)^2 (I - s s')`` to each family direction's
+    covariance, however many lines the family has (their planes are unchanged), and without it the
+    estimates are those of the exact model to the bit."""
+    from catadioptric.pose.central import rad_per_px
+    from catadioptric.pose.families import fit_view_families
+
+    va, _, _, _ = _pair("hyperboloid_central")
+    e0, _ = fit_view_families(va)
+    e1, _ = fit_view_families(va, calibration_rms_px=0.4)
+    ez, _ = fit_view_families(va, calibration_rms_px=0.0)
+    eps = 0.4 * rad_per_px(va.cam)
+    assert eps > 0
+    for k in e0:
+        s = e0[k].direction
+        assert np.array_equal(e1[k].direction, s) and np.array_equal(e1[k].normal_covs, e0[k].normal_covs)
+        assert np.allclose(e1[k].cov - e0[k].cov, eps**2 * (np.eye(3) - np.outer(s, s)), rtol=1e-9, atol=1e-22)
+        assert np.array_equal(ez[k].cov, e0[k].cov)
 
 
 def test_without_labels_families_and_lines_are_matched_by_the_geometry():

@@ -15,6 +15,7 @@ import numpy as np
 
 from .._checks import CatadioptricError
 from ..viewlines import ViewLines  # below both detect (which produces it) and pose; re-exported here
+from .rotation import with_floor
 
 __all__ = ["ViewLines", "FamilyEstimate", "fit_view_families", "is_central", "rays_centre"]
 
@@ -143,7 +144,8 @@ def _spread(n: int, k: int | None) -> np.ndarray:
 
 def fit_view_families(view: ViewLines, *, keys=None, seed=0, f_scale: float = 1.0, pixel_sigma=None,
                       hints: dict | None = None, max_pixels: int | None = None,
-                      exact: bool = True, model_error_px: float = 0.0) -> tuple[dict, dict]:
+                      exact: bool = True, model_error_px: float = 0.0,
+                      calibration_rms_px: float = 0.0) -> tuple[dict, dict]:
     """Fit every family of ``view`` (or those in ``keys``). Returns ``(estimates, failures)``:
     ``{family: FamilyEstimate}`` and ``{family: reason}``. ``hints``: ``{family: direction}``
     in the view's mirror frame (a matched end, e.g. from a vanishing point): the fitted
@@ -154,7 +156,12 @@ def fit_view_families(view: ViewLines, *, keys=None, seed=0, f_scale: float = 1.
     cheaper than the exact joint fits, and an approximation by the spread of the rays' origins
     over the lines' distances, enough to start the two-view refinement. ``model_error_px``: the
     camera model's own error (pixels; e.g. the rms of a central approximation of a non-central
-    rig), added to each plane's normal covariance as an error its pixels share."""
+    rig), added to each plane's normal covariance as an error its pixels share.
+    ``calibration_rms_px``: a calibrated camera's reprojection rms (pixels, as its calibration tool
+    states it): an error of the model that the lines of a family share (they lie in one part of the
+    image, where the model is off the same way), so it is not reduced by their number: added to each
+    family's direction as an error of that many pixels' angle (:func:`~catadioptric.pose.central.rad_per_px`)
+    any way across it (:func:`~catadioptric.pose.rotation.with_floor`)."""
     fams = view.families()
     est, fail = {}, {}
     central = is_central(view.cam)
@@ -165,6 +172,11 @@ def fit_view_families(view: ViewLines, *, keys=None, seed=0, f_scale: float = 1.
         from .central import rad_per_px
 
         model_error_rad = float(model_error_px) * rad_per_px(view.cam)
+    floor_deg = 0.0
+    if calibration_rms_px:
+        from .central import rad_per_px
+
+        floor_deg = float(np.degrees(float(calibration_rms_px) * rad_per_px(view.cam)))
     for key in (fams if keys is None else [k for k in keys if k in fams]):
         idx = fams[key]
         picks = [_spread(len(view.uv[i]), max_pixels) for i in idx]
@@ -201,7 +213,7 @@ def fit_view_families(view: ViewLines, *, keys=None, seed=0, f_scale: float = 1.
             if s @ h < 0:
                 s = -s
                 pl = -pl
-        est[key] = FamilyEstimate(key=key, direction=s, cov=cov, lines=[idx[k] for k in keep], pluecker=pl,
+        est[key] = FamilyEstimate(key=key, direction=s, cov=with_floor(s, cov, floor_deg), lines=[idx[k] for k in keep], pluecker=pl,
                                   normals=normals, centre=centre, inv_distance=rho, inv_distance_std=rho_sd,
                                   inliers=list(inl), sigma=sig, rms=rms,
                                   dropped={idx[k]: v for k, v in dropped.items()}, normal_covs=ncov)

@@ -88,6 +88,7 @@ class PoseOptions:
     max_rotation_deg: float | None = None
     model_error_px: float = 0.0
     decisive_matching: float | None = None
+    calibration_rms_px: float = 0.0
 
     def checked(self) -> PoseOptions:
         """These options with each number checked (a one-line error naming a bad one) and made a float."""
@@ -97,10 +98,12 @@ class PoseOptions:
             return None if v is None else as_scalar(v, name, positive=True)
 
         ok = {k: positive(k) for k in ("decisive", "decisive_matching", "f_scale", "pixel_sigma", "max_rotation_deg")}
-        model_error_px = as_scalar(self.model_error_px, "model_error_px")
-        if model_error_px < 0:
-            raise CatadioptricError(f"model_error_px: expected a non-negative number of pixels, got {model_error_px}")
-        return replace(self, model_error_px=model_error_px, **ok)
+        for name in ("model_error_px", "calibration_rms_px"):
+            v = as_scalar(getattr(self, name), name)
+            if v < 0:
+                raise CatadioptricError(f"{name}: expected a non-negative number of pixels, got {v}")
+            ok[name] = v
+        return replace(self, **ok)
 
 
 @dataclass
@@ -438,9 +441,11 @@ def labelled_pose(view_a: ViewLines, view_b: ViewLines, ends: dict | None, opts:
     # each view: planes of its lines and its families' directions (stages 1 and the refinement's start)
     if fitted is None:
         ea, fail_a = fit_view_families(view_a, keys=common, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
-                                       hints=hints_a, max_pixels=max_pixels, exact=False, model_error_px=model_error_px)
+                                       hints=hints_a, max_pixels=max_pixels, exact=False, model_error_px=model_error_px,
+                                       calibration_rms_px=opts.calibration_rms_px)
         eb, fail_b = fit_view_families(view_b, keys=common, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
-                                       hints=hints_b, max_pixels=max_pixels, exact=False, model_error_px=model_error_px)
+                                       hints=hints_b, max_pixels=max_pixels, exact=False, model_error_px=model_error_px,
+                                       calibration_rms_px=opts.calibration_rms_px)
     else:
         (ea, fail_a), (eb, fail_b) = (_refitted(f, common, h) for f, h in zip(fitted, (hints_a, hints_b)))
     notes = [f"family {k} not used in view A: {v}" for k, v in fail_a.items()]

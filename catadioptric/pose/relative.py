@@ -26,7 +26,8 @@ __all__ = ["Candidate", "RelativePose", "relative_pose", "matching_bar", "MATCHI
 def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = None, seed=0, f_scale: float = 1.0,
                   pixel_sigma: float | None = None, decisive: float = 25.0, max_pixels: int | None = 40,
                   min_families: int = 2, max_rotation_deg: float | None = None,
-                  model_error_px: float = 0.0, decisive_matching: float | None = None) -> RelativePose:
+                  model_error_px: float = 0.0, decisive_matching: float | None = None,
+                  calibration_rms_px: float = 0.0) -> RelativePose:
     """The relative pose ``x_B = R x_A + t`` of two views from the lines they see.
 
     ``view_a``, ``view_b``: :class:`ViewLines`. ``ends``: ``{family: (hint_a, hint_b)}``, for
@@ -41,7 +42,11 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
     rather than by the lines, and the notes say so. ``model_error_px``: the camera model's own
     error in pixels (e.g. the rms of the best central approximation of a non-central rig): an
     error the pixels of a line share, added to the planes' covariances so that a model that does
-    not fit exact pixels is not trusted beyond its own precision. ``decisive_matching``: when
+    not fit exact pixels is not trusted beyond its own precision. ``calibration_rms_px``: a
+    calibrated camera's reprojection rms in pixels, as its calibration tool reports it (0: an exact
+    model, as a rendered rig's): an error the lines of a family share, added across each family's
+    direction (:func:`~catadioptric.pose.families.fit_view_families`), so that the rotation does not
+    lean on directions beyond what the calibration knows (docs/cameras.md). ``decisive_matching``: when
     nothing is matched across the views (no ``line_id``: each image's own detections), the margin
     the best assignment of families and lines needs over the next different answer (at least
     ``decisive``; None: :func:`matching_bar` of the number of family assignments tried, 25 for at
@@ -59,7 +64,7 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
         raise CatadioptricError(f"view_a, view_b: expected ViewLines, got {type(view_a).__name__} and "
                                 f"{type(view_b).__name__}")
     opts = PoseOptions(seed, f_scale, pixel_sigma, decisive, max_pixels, min_families, max_rotation_deg,
-                       model_error_px, decisive_matching).checked()
+                       model_error_px, decisive_matching, calibration_rms_px).checked()
     if is_central(view_a.cam) != is_central(view_b.cam):
         raise CatadioptricError("view_a, view_b: expected two central or two non-central cameras, got one of each")
     unmatched = all(i is None for i in view_a.line_id) or all(i is None for i in view_b.line_id)
@@ -68,4 +73,8 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
                                 "the views; these views' lines carry no line_id (nothing is matched)")
     # every linear solve here is small: a multithreaded BLAS only fights other work for the cores
     with threadpool_limits(1):
-        return unlabelled_pose(view_a, view_b, opts) if unmatched else labelled_pose(view_a, view_b, ends, opts)
+        res = unlabelled_pose(view_a, view_b, opts) if unmatched else labelled_pose(view_a, view_b, ends, opts)
+    if opts.calibration_rms_px:
+        res.notes = [*res.notes, f"each family's direction carries the calibration's rms, {opts.calibration_rms_px:g} "
+                                 f"px, beyond its fit (an error its lines share)"]
+    return res

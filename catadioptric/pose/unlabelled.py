@@ -59,9 +59,11 @@ def unlabelled_pose(view_a: ViewLines, view_b: ViewLines, opts: PoseOptions) -> 
     model_error_px, decisive_matching = opts.model_error_px, opts.decisive_matching
 
     ea, fail_a = fit_view_families(view_a, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
-                                   max_pixels=max_pixels, exact=False, model_error_px=model_error_px)
+                                   max_pixels=max_pixels, exact=False, model_error_px=model_error_px,
+                                   calibration_rms_px=opts.calibration_rms_px)
     eb, fail_b = fit_view_families(view_b, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
-                                   max_pixels=max_pixels, exact=False, model_error_px=model_error_px)
+                                   max_pixels=max_pixels, exact=False, model_error_px=model_error_px,
+                                   calibration_rms_px=opts.calibration_rms_px)
     if len(ea) < min_families or len(eb) < min_families:
         raise CatadioptricError(f"views: expected at least {min_families} families of two or more lines in each "
                                 f"view, got {len(ea)} in A and {len(eb)} in B")

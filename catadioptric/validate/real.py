@@ -5,7 +5,8 @@ The folder given (``../shared/real`` in CI and for the committed report, ``valid
 images of a fixed camera and a moving chessboard (every image file of the folder,
 :data:`IMAGE_SUFFIXES`), ``board_extrinsics.json`` with OpenCV's pose of the board for some of
 them (and optionally its ``pattern`` of inner corners and ``square`` in metres; else the board of
-``../shared/real``), ``masks/`` of the board, made from the extrinsics for an image without one)
+``../shared/real``; and the calibration's reprojection ``rms`` in pixels, given to every pose as
+``calibration_rms_px``), ``masks/`` of the board, made from the extrinsics for an image without one)
 and ``ocamcalib/`` (photographs of a room and their OCamCalib ``calib_results.txt``). An image
 the detector cannot read is reported, not fatal. The report measures:
 
@@ -184,6 +185,7 @@ def run_real(data: str, out: str, *, max_rotation_deg: float | None = None, prog
     ext = json.load(open(os.path.join(mei, "board_extrinsics.json")))
     views = ext["views"]
     pattern, square = tuple(ext.get("pattern", BOARD_PATTERN)), float(ext.get("square", BOARD_SQUARE))
+    rms = float(ext.get("rms", 0.0))  # the calibration's reprojection rms (px), when the folder states it
     names = _image_names(mei)
     if not names:
         raise CatadioptricError(f"--data: expected images ({', '.join(IMAGE_SUFFIXES)}) in {mei!r}, found none")
@@ -229,7 +231,7 @@ def run_real(data: str, out: str, *, max_rotation_deg: float | None = None, prog
         for prior in (max_rotation_deg, STATIC_PRIOR_DEG):
             say(f"static pair {a} {b} (prior {prior})")
             try:
-                res = pose_from_detections(dets[a], dets[b], max_rotation_deg=prior)
+                res = pose_from_detections(dets[a], dets[b], max_rotation_deg=prior, calibration_rms_px=rms)
                 settle_by_look(res, (images[a], images[b]), (cam, cam))
             except CatadioptricError as exc:
                 static.append({"pair": f"{a} {b}", "prior_deg": prior, "failed": str(exc)})
@@ -246,7 +248,8 @@ def run_real(data: str, out: str, *, max_rotation_deg: float | None = None, prog
         say(f"board pair {a} {b}")
         truths = board_symmetries(_rodrigues(views[a]["rvec"]), _rodrigues(views[b]["rvec"]))
         try:
-            res = pose_from_detections(dets_board[a], dets_board[b], max_rotation_deg=max_rotation_deg)
+            res = pose_from_detections(dets_board[a], dets_board[b], max_rotation_deg=max_rotation_deg,
+                                       calibration_rms_px=rms)
             settle_by_look(res, (images[a], images[b]), (cam, cam), (masks[a], masks[b]))
         except CatadioptricError as exc:
             board.append({"pair": f"{a} {b}", "failed": str(exc)})
@@ -256,7 +259,7 @@ def run_real(data: str, out: str, *, max_rotation_deg: float | None = None, prog
     absolute = _absolute(images, masks, views, cam, (pattern, square), say)
     # 5. the OCamCalib room(s)
     rooms = _rooms(os.path.join(data, "ocamcalib"), out, say)
-    return {"format": "catadioptric-real-report/1", "data": data, "camera": cam.to_dict(),
+    return {"format": "catadioptric-real-report/1", "data": data, "camera": cam.to_dict(), "calibration_rms_px": rms,
             "max_rotation_deg": max_rotation_deg, "board_axes": axes, "static_pairs": static, "board_pairs": board,
             "absolute_pose": absolute, "ocamcalib_rooms": rooms, "board": {"pattern": list(pattern), "square": square},
             "masks_made": mask_made, "failed_detections": failed,
@@ -347,6 +350,9 @@ def real_markdown(res: dict, command: str) -> str:
          "directions in omnidir's camera frame. The Mei images are not committed (terms unknown): their overlays "
          "show the detected curves on a plain background, coloured by family, with the mirror's annulus found in "
          "the photograph (white circles).", ""]
+    if res.get("calibration_rms_px"):
+        L += [f"Every relative pose is given the calibration's reprojection rms, {res['calibration_rms_px']:.3f} px "
+              "(`board_extrinsics.json`; `--calibration-rms`), as an error each family's direction carries.", ""]
     if res["max_rotation_deg"] is not None:
         L += [f"Prior: the views turn by at most {res['max_rotation_deg']} degrees.", ""]
     if res.get("masks_made"):
