@@ -51,7 +51,8 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
                               min_pixels: int = 30, max_rotation_deg: float | None = None, decisive: float = 25.0,
                               decisive_matching: float | None = None, seed: int = 0, joint: bool = True,
                               covariance_scale: float | None = None, masks=(None, None),
-                              look: bool = True, calibration_rms_px: float = 0.0) -> ImagePairPose:
+                              look: bool = True, calibration_rms_px: float = 0.0,
+                              symmetric_target: bool = False) -> ImagePairPose:
     """The relative pose of two views from their images alone.
 
     ``image_a``, ``image_b``: arrays (RGB or grey; uint8, uint16 or float in [0, 1]) taken by
@@ -69,7 +70,10 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
     :data:`COVARIANCE_SCALE`, measured on rendered pairs; 1: the fit's own). ``look``: an answer that
     only its margin left ambiguous is decided by the images' look where it clearly prefers one of
     the answers the geometry keeps (:func:`settle_by_look`). ``calibration_rms_px``: the cameras'
-    calibration rms in pixels (see :func:`catadioptric.pose.relative_pose`; 0 for a rendered rig). Raises :class:`CatadioptricError` naming the
+    calibration rms in pixels (see :func:`catadioptric.pose.relative_pose`; 0 for a rendered rig).
+    ``symmetric_target``: the lines are those of one planar target that a half-turn about its axes
+    maps onto itself (a chessboard, masked): an answer whose twin under such a turn is listed is
+    ambiguous (:func:`catadioptric.pose.twins.flag_twins`), and the look does not choose between them. Raises :class:`CatadioptricError` naming the
     cause when a view has fewer than two families.
     """
     from .detect import detect_lines
@@ -112,6 +116,10 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
         if mixed is None:
             raise
         raise CatadioptricError(f"{exc} ({mixed})") from None
+    if symmetric_target:
+        from .pose.twins import flag_twins
+
+        flag_twins(res.pose)
     if look:
         settle_by_look(res, (image_a, image_b), (cam_a, cam_b), masks)
     if mixed is not None:
@@ -530,7 +538,8 @@ def _run(args) -> int:
                                     min_pixels=args.min_pixels, max_rotation_deg=args.max_rotation,
                                     decisive=args.decisive, decisive_matching=args.decisive_matching,
                                     joint=not args.no_joint_families, masks=masks, look=not args.no_look,
-                                    calibration_rms_px=args.calibration_rms)
+                                    calibration_rms_px=args.calibration_rms,
+                                    symmetric_target=args.symmetric_target or args.preset == "chessboard")
     os.makedirs(args.out, exist_ok=True)
     summary = image_pair_summary(res) | {"images": [os.path.abspath(args.image_a), os.path.abspath(args.image_b)],
                                          "rig": [args.rig, args.rig_b or args.rig]}
@@ -588,6 +597,10 @@ def register(sub) -> None:
     p.add_argument("--no-joint-families", action="store_true",
                    help="do not look for the families that only both images together show (two lines in each; "
                         "docs/relative_pose.md)")
+    p.add_argument("--symmetric-target", action="store_true",
+                   help="the lines are one planar target that a half-turn about its axes maps onto itself (a "
+                        "chessboard, masked): an answer whose twin under such a turn is listed is ambiguous "
+                        "(implied by --preset chessboard; docs/cameras.md)")
     p.add_argument("--no-look", action="store_true",
                    help="do not let the images' look decide an answer the geometry leaves ambiguous by its margin "
                         "(docs/relative_pose.md)")
@@ -597,5 +610,6 @@ def register(sub) -> None:
                    help="the detector's distance of a line's pixels to its curve (default 1; overrides the preset's)")
     p.add_argument("--preset", choices=sorted(PRESETS),
                    help="the detector's options for a kind of scene (catadioptric.detect.PRESETS): chessboard for "
-                        "a board's masked lines, whose edges break at every corner (docs/cameras.md)")
+                        "a board's masked lines, whose edges break at every corner; it implies --symmetric-target "
+                        "(docs/cameras.md)")
     p.set_defaults(func=_run)

@@ -73,6 +73,8 @@ def test_the_boards_motion_up_to_its_symmetries(report):
     # and the right motion is listed: each view's board axes are families within 1 degree (the test
     # above), so the rotation they give is within about 1 degree per view of a symmetric truth
     assert min(c["error_deg"] for c in r["candidates"]) < 2.0, r["candidates"]
+    # the board's half-turn twins named: the verdict is ambiguous whatever the margins say
+    assert r["ambiguous"] and "symmetric_target" in r["ambiguous_by"] and r["twins"], r
     # with the preset it leads the list (a quarter turn led it with the threshold alone), and with the
     # calibration's rms given (board_extrinsics.json's, 0.385 px) within the 1 degree
     assert report["calibration_rms_px"] > 0
@@ -146,6 +148,8 @@ def test_relative_pose_of_the_board_with_the_chessboard_preset(tmp_path):
     pose = json.loads((out / "pose.json").read_text())
     assert code == 3 and pose["ambiguous"], pose["notes"]
     assert any(f"calibration's rms, {rms:g} px" in n for n in pose["notes"]), pose["notes"]
+    # the preset says the lines are a board's: its half-turn twins are listed and named as ties
+    assert "symmetric_target" in pose["evidence"]["ambiguous_by"] and pose["evidence"]["twins"]
     ext = ext["views"]
 
     def rodrigues(r):
@@ -154,5 +158,8 @@ def test_relative_pose_of_the_board_with_the_chessboard_preset(tmp_path):
         return cv2.Rodrigues(np.asarray(r, float))[0]
 
     truths = board_symmetries(rodrigues(ext[a]["rvec"]), rodrigues(ext[b]["rvec"]))
-    # the bound on a board pair, as in the report
+    # the bound on a board pair, as in the report; each twin a symmetric truth too (about 1 degree
+    # per view: each view's board axes are families within 1 degree)
     assert angle_to_nearest(np.asarray(pose["R"], float), truths)[0] < 1.0
+    for t in pose["evidence"]["twins"]:
+        assert angle_to_nearest(np.asarray(pose["candidates"][t["candidate"]]["R"], float), truths)[0] < 2.0

@@ -161,6 +161,8 @@ def _pose_row(res, truths, label):
             "translation_observable": bool(getattr(p, "translation_observable", True)),
             "lines_seen_again": None if p.turned_in_place is None else len(p.turned_in_place.twins),
             "rival_most": None if p.turned_in_place is None else p.turned_in_place.rival_twins,
+            "ambiguous_by": list((p.evidence or {}).get("ambiguous_by", [])),
+            "twins": [t["candidate"] for t in (p.evidence or {}).get("twins", [])],
             "candidates": cands, "notes": list(p.notes)}
 
 
@@ -170,6 +172,7 @@ def run_real(data: str, out: str, *, max_rotation_deg: float | None = None, prog
     from ..detect import detect_lines
     from ..detect.report import write_png
     from ..formats import load_camera
+    from ..pose.twins import flag_twins
     from ..twoview import pair_overlay, pose_from_detections, settle_by_look
 
     def say(msg):
@@ -250,6 +253,7 @@ def run_real(data: str, out: str, *, max_rotation_deg: float | None = None, prog
         try:
             res = pose_from_detections(dets_board[a], dets_board[b], max_rotation_deg=max_rotation_deg,
                                        calibration_rms_px=rms)
+            flag_twins(res.pose)  # a board's half-turn twins are ties (relative-pose --preset chessboard)
             settle_by_look(res, (images[a], images[b]), (cam, cam), (masks[a], masks[b]))
         except CatadioptricError as exc:
             board.append({"pair": f"{a} {b}", "failed": str(exc)})
@@ -395,6 +399,10 @@ def real_markdown(res: dict, command: str) -> str:
               ""]
         L += [f"![{r['pair']}]({r['overlay']})" for r in shown]
     L += ["", "## The board's motion (board masks; truth `R_j R_i^T` up to the board's line symmetries)", "",
+          "A half-turn about any of the board's axes maps its lines onto themselves: an answer whose twin under "
+          "such a turn is listed is reported ambiguous (`catadioptric.pose.twins`; `relative-pose --preset "
+          "chessboard`), the twins named (candidates counted from 1). Symmetry: 0 identity, 1-3 the half-turns "
+          "about the board's x, y, z.", "",
           "| pair | error to the nearest symmetric truth (deg) | which | verdict (margin) | candidates: error (deg) / "
           "symmetry |", "|---|---|---|---|---|"]
     sym = ["identity", "half-turn about x", "half-turn about y", "half-turn about z"]
@@ -403,6 +411,8 @@ def real_markdown(res: dict, command: str) -> str:
             L.append(f"| {r['pair']} | failed: {r['failed']} | | | |")
             continue
         verdict = ("**ambiguous**" if r["ambiguous"] else "decisive") + f" ({r['margin']:.1f})"
+        if r.get("twins"):
+            verdict += "; the board's twins: candidates " + ", ".join(str(k + 1) for k in r["twins"])
         cands = ", ".join(f"{c['error_deg']:.2f}/{c['symmetry']}" for c in r["candidates"][:4])
         L.append(f"| {r['pair']} | {r['error_deg']:.3f} | {sym[r['symmetry']]} | {verdict} | {cands} |")
     if res["absolute_pose"]:
