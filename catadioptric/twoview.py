@@ -239,8 +239,8 @@ _JOINT_AGREE_SIGMA = 5.0 * 2.5
 
 
 #: the agreement of the images (:func:`catadioptric.photometric.rotation_agreement`, a correlation) by
-#: which an answer must beat every other answer its directions allow, for :func:`settle_by_look`
-#: to decide an answer left ambiguous
+#: which an answer other than the geometry's first must beat every other answer its directions allow,
+#: for :func:`settle_by_look` to decide an answer left ambiguous (the geometry's first needs only to lead)
 LOOK_BAR = 0.1
 
 
@@ -255,8 +255,9 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     seen in A to compare contradicts the lines it matched in both views and ranks last (agreement
     taken as -1), unless a mask is given (the mask may be what hides the view: then no answer is
     chosen). The answer that agrees best is the
-    answer when it agrees better than every other by at least ``bar`` and the geometry keeps it
-    (its cost within the matching's bar of the best: one of the answers the geometry could not
+    answer when it agrees better than every other by at least ``bar`` (by any margin when it is the
+    geometry's own first answer: the two cues then agree, and only an answer that overturns the
+    lines' ranking needs the bar) and the geometry keeps it (its cost within the matching's bar of the best: one of the answers the geometry could not
     tell apart, refined as the best was), and no rotation near it agrees better by ``bar``
     (:meth:`~catadioptric.photometric.RotationAgreement.best_near`: the answer is where the images
     agree, not only the best of the answers). ``res`` then holds it, decisive, its candidates first;
@@ -316,13 +317,16 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
             p.notes = [*p.notes, f"the images' look did not decide it: its best answer (candidate {k}), refined, "
                                  f"no longer leads (candidate {answers[order[0]]} does)"]
             return False
+    # the geometry's own first answer needs the look's preference alone (two cues agree); another answer
+    # must beat every other by the bar (the look overturns the lines' ranking)
+    enough = margin >= bar or (k == 0 and margin > 0.0)
     gain = apart = float("nan")
-    if margin >= bar and kept and refined:
+    if enough and kept and refined:
         R_near, a_near = judge.best_near(p.candidates[k].R)
         gain, apart = a_near - float(agree[order[0]]), rotation_angle_deg(R_near @ p.candidates[k].R.T)
         look["nearby"] = {"agreement": a_near, "apart_deg": apart}
-    if margin < bar or not kept or not refined or not gain < bar:
-        lost = (f"margin {margin:.3f} against a bar of {bar:g}" if margin < bar else
+    if not enough or not kept or not refined or not gain < bar:
+        lost = (f"margin {margin:.3f} against a bar of {bar:g}" if not enough else
                 f"its best answer (candidate {k}) is beyond the matching's bar" if not kept else
                 f"its best answer (candidate {k}) was not refined" if not refined else
                 f"a rotation {apart:.1f} deg from its best answer agrees better by {gain:.3f} (bar {bar:g}): that "
@@ -333,7 +337,9 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     note = (f"decided by the images' look: image B agrees with image A turned by "
             f"{'the best answer' if k == 0 else f'candidate {k} (within the matching bar of the best)'} "
             f"(correlation {agree[order[0]]:.3f}) better than by any of the {len(answers) - 1} other answers by "
-            f"{margin:.3f}, against a bar of {bar:g}"
+            f"{margin:.3f}, "
+            + (f"against a bar of {bar:g}" if margin >= bar else
+               f"confirming the lines' own first answer (another answer would need {bar:g})")
             + (f" ({int(unseen.sum())} of them turn B's view out of A's)" if unseen.any() else ""))
     if k != 0:
         p = _take_rival(res, k)

@@ -300,8 +300,9 @@ def test_no_families_are_looked_for_under_an_ambiguous_answer(held_ambiguous):
 def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street, held_ambiguous):
     """An answer the geometry left ambiguous by its margin alone (here forced: a matching bar of
     10000) is decided by the images' look when image B agrees with A turned by the first answer
-    better than by every other answer by the bar; the answer itself does not change. Any other
-    reason for the ambiguity is left to the geometry."""
+    better than by every other answer (the two cues agree: any margin), or by another answer better
+    by the bar (the look overturns the lines' ranking); the answer itself does not change in the
+    first case. Any other reason for the ambiguity is left to the geometry."""
     import copy
 
     from catadioptric.twoview import LOOK_BAR, settle_by_look
@@ -309,7 +310,7 @@ def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street, 
     _, a, b, R_gt, _ = street
     res = copy.deepcopy(held_ambiguous)
     assert res.pose.ambiguous and res.pose.evidence["ambiguous_by"] == ["margin"]
-    other, low, swap = copy.deepcopy(res), copy.deepcopy(res), copy.deepcopy(res)
+    other, low, swap, high = (copy.deepcopy(res) for _ in range(4))
     R0 = res.pose.R.copy()
     decided = settle_by_look(res, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]))
     look = res.pose.evidence["look"]
@@ -318,11 +319,17 @@ def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street, 
     # on this pair the look ranks the first answer, the right one, first
     assert look["best"] == 0 and rotation_angle_deg(res.pose.R @ R_gt.T) < 0.5, look
     assert np.isclose(look["margin"], agree[0] - agree[1:].max()) and look["bar"] == LOOK_BAR
-    assert decided == look["decided"] == (look["margin"] >= LOOK_BAR) == (not res.pose.ambiguous)
+    assert look["margin"] > 0 and decided == look["decided"] == (not res.pose.ambiguous)
+    assert decided, res.pose.notes  # its nearby check passes: a right answer
     # with a bar below its margin the look decides it, and the answer stays the first
     assert settle_by_look(low, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]), bar=0.5 * look["margin"])
     assert not low.pose.ambiguous and np.array_equal(low.pose.R, R0)
-    assert low.pose.notes[0].startswith("decided by the images' look")
+    assert low.pose.notes[0].startswith("decided by the images' look") and "against a bar of" in low.pose.notes[0]
+    # and above it too: the look confirms the geometry's own first answer, and says so
+    assert settle_by_look(high, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]), bar=2.0 * look["margin"])
+    assert not high.pose.ambiguous and np.array_equal(high.pose.R, R0)
+    assert "confirming the lines' own first answer" in high.pose.notes[0]
+    swap_high = copy.deepcopy(swap)
     # the look's best answer need not be the geometry's first: with a wrong answer put first and the
     # right one second (a rival refined as the first was), the look gives the right one, decisive, its
     # candidates first, its family map, and the geometry's margin of that answer
@@ -338,6 +345,16 @@ def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street, 
     assert swap.pose.evidence["look"]["best"] == 1 and not swap.pose.ambiguous
     assert np.array_equal(swap.pose.R, R0) and swap.pose.candidates[0] is right
     assert swap.family_map == res.family_map and np.isclose(swap.pose.margin, res.pose.margin)
+    # overturning the lines' ranking needs the bar: above the look's margin, the answer stays ambiguous
+    p = swap_high.pose
+    p.candidates = [wrong, right, *[c for i, c in enumerate(p.candidates) if i not in (0, j)]]
+    p.rivals = {1: copy.deepcopy(res.pose)}
+    p.R, p.ambiguous = wrong.R, True
+    p.evidence["ambiguous_by"] = ["margin"]
+    assert not settle_by_look(swap_high, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]),
+                              bar=2.0 * look["margin"])
+    assert swap_high.pose.ambiguous and swap_high.pose.evidence["look"]["best"] == 1
+    assert "against a bar of" in swap_high.pose.notes[-1]
     # ambiguous for another reason (a rival the geometry could not score): the look is not asked
     other.pose.evidence["ambiguous_by"] = ["margin", "unscored"]
     assert not settle_by_look(other, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]))
