@@ -51,8 +51,7 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
                               min_pixels: int = 30, max_rotation_deg: float | None = None, decisive: float = 25.0,
                               decisive_matching: float | None = None, seed: int = 0, joint: bool = True,
                               covariance_scale: float | None = None, masks=(None, None),
-                              look: bool = True, calibration_rms_px: float = 0.0,
-                              symmetric_target: bool = False) -> ImagePairPose:
+                              look: bool = True, calibration_rms_px: float = 0.0) -> ImagePairPose:
     """The relative pose of two views from their images alone.
 
     ``image_a``, ``image_b``: arrays (RGB or grey; uint8, uint16 or float in [0, 1]) taken by
@@ -71,9 +70,11 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
     only its margin left ambiguous is decided by the images' look where it clearly prefers one of
     the answers the geometry keeps (:func:`settle_by_look`). ``calibration_rms_px``: the cameras'
     calibration rms in pixels (see :func:`catadioptric.pose.relative_pose`; 0 for a rendered rig).
-    ``symmetric_target``: the lines are those of one planar target that a half-turn about its axes
-    maps onto itself (a chessboard, masked): an answer whose twin under such a turn is listed is
-    ambiguous (:func:`catadioptric.pose.twins.flag_twins`), and the look does not choose between them. Raises :class:`CatadioptricError` naming the
+    For the lines of one planar target that a half-turn about its axes maps onto itself (a
+    chessboard, masked), call it with ``look=False``, then
+    :func:`catadioptric.pose.twins.flag_twins` on ``res.pose`` (an answer whose twin under such a
+    turn is listed is ambiguous), then :func:`settle_by_look` (which leaves such an answer alone), as
+    ``relative-pose --symmetric-target`` does. Raises :class:`CatadioptricError` naming the
     cause when a view has fewer than two families.
     """
     from .detect import detect_lines
@@ -116,10 +117,6 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
         if mixed is None:
             raise
         raise CatadioptricError(f"{exc} ({mixed})") from None
-    if symmetric_target:
-        from .pose.twins import flag_twins
-
-        flag_twins(res.pose)
     if look:
         settle_by_look(res, (image_a, image_b), (cam_a, cam_b), masks)
     if mixed is not None:
@@ -540,12 +537,21 @@ def _run(args) -> int:
     if args.threshold is not None:
         opts["threshold"] = args.threshold
     opts = preset_options(args.preset, opts)
+    symmetric = args.symmetric_target or args.preset == "chessboard"
     res = relative_pose_from_images(images[0], images[1], cam_a, cam_b, detect_options=opts,
                                     min_pixels=args.min_pixels, max_rotation_deg=args.max_rotation,
                                     decisive=args.decisive, decisive_matching=args.decisive_matching,
-                                    joint=not args.no_joint_families, masks=masks, look=not args.no_look,
-                                    calibration_rms_px=args.calibration_rms,
-                                    symmetric_target=args.symmetric_target or args.preset == "chessboard")
+                                    joint=not args.no_joint_families, masks=masks,
+                                    look=not (args.no_look or symmetric), calibration_rms_px=args.calibration_rms)
+    if symmetric:  # the target's twins first: the look then leaves an answer they make ambiguous alone
+        from .pose.twins import flag_twins
+
+        t0 = time.perf_counter()
+        flag_twins(res.pose)
+        if not args.no_look:
+            settle_by_look(res, (images[0], images[1]), (cam_a, cam_b), masks)
+        spent = time.perf_counter() - t0
+        res.seconds = {k: v + spent if k in ("pose", "total") else v for k, v in res.seconds.items()}
     os.makedirs(args.out, exist_ok=True)
     summary = image_pair_summary(res) | {"images": [os.path.abspath(args.image_a), os.path.abspath(args.image_b)],
                                          "rig": [args.rig, args.rig_b or args.rig]}
