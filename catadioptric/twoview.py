@@ -538,11 +538,21 @@ def _run(args) -> int:
         opts["threshold"] = args.threshold
     opts = preset_options(args.preset, opts)
     symmetric = args.symmetric_target or args.preset == "chessboard"
+    rms, rms_from = args.calibration_rms, None
+    if rms is None:  # the calibration's own rms when its file keeps one (OpenCV's omnidir sample writes it)
+        from .formats import calibration_rms
+
+        kept = [(r, calibration_rms(r)) for r in dict.fromkeys((args.rig, args.rig_b or args.rig))]
+        kept = [(r, v) for r, v in kept if v is not None]
+        rms, rms_from = (max(v for _, v in kept), [r for r, _ in kept]) if kept else (0.0, None)
     res = relative_pose_from_images(images[0], images[1], cam_a, cam_b, detect_options=opts,
                                     min_pixels=args.min_pixels, max_rotation_deg=args.max_rotation,
                                     decisive=args.decisive, decisive_matching=args.decisive_matching,
                                     joint=not args.no_joint_families, masks=masks,
-                                    look=not (args.no_look or symmetric), calibration_rms_px=args.calibration_rms)
+                                    look=not (args.no_look or symmetric), calibration_rms_px=rms)
+    if rms_from:
+        res.pose.notes = [*res.pose.notes, f"the calibration's rms, {rms:g} px, is the rms kept in "
+                                           f"{' and '.join(rms_from)} (--calibration-rms overrides it)"]
     if symmetric:  # the target's twins first: the look then leaves an answer they make ambiguous alone
         from .pose.twins import flag_twins
 
@@ -596,10 +606,11 @@ def register(sub) -> None:
                    help="prior: the views turn by at most DEG degrees (rules out the symmetric answers of a "
                         "Manhattan scene; default: none, such answers are reported ambiguous)")
     p.add_argument("--min-pixels", type=positive_int, default=30, help="shortest line used, pixels (default 30)")
-    p.add_argument("--calibration-rms", type=nonnegative_float, default=0.0, metavar="PX",
+    p.add_argument("--calibration-rms", type=nonnegative_float, default=None, metavar="PX",
                    help="the calibration's reprojection rms in pixels, as its tool reports it: an error the lines of "
-                        "a family share, added to each family's direction (default 0: an exact model, as a rendered "
-                        "rig's; docs/cameras.md)")
+                        "a family share, added to each family's direction (default: the rms the calibration file "
+                        "keeps, as OpenCV's omnidir sample writes it, else 0: an exact model, as a rendered rig's; "
+                        "docs/cameras.md)")
     p.add_argument("--decisive", type=positive_float, default=25.0,
                    help="margin (chi-square units) the best answer needs over the next (default 25)")
     p.add_argument("--decisive-matching", type=positive_float, default=None,

@@ -2,6 +2,7 @@
 omnidir reader (files written by cv2.FileStorage, YAML and XML, and the project's own export) and
 calibration files as --rig."""
 import json
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -10,7 +11,7 @@ import pytest
 from catadioptric._checks import CatadioptricError
 from catadioptric.cli import main
 from catadioptric.cliargs import resolve_rig
-from catadioptric.formats import calibration_format, load_camera
+from catadioptric.formats import calibration_format, calibration_rms, load_camera
 from catadioptric.formats.opencv import opencv_yaml
 from catadioptric.models import MeiCamera, model_from_dict
 from catadioptric.rigs import preset
@@ -122,6 +123,23 @@ def test_reads_a_file_cv2_filestorage_wrote(tmp_path, ext, cam):
     c = load_camera(p)
     assert isinstance(c, MeiCamera) and (c.width, c.height) == (1280, 1024)
     assert np.array_equal(c.K, K) and c.xi == XI and c.D == D  # FileStorage writes 17 digits: exact
+    # the rms OpenCV's omnidir sample keeps in its file, for relative_pose(..., calibration_rms_px=)
+    assert calibration_rms(p) == 0.385
+
+
+def test_the_calibrations_rms_is_read_when_kept(tmp_path):
+    p = tmp_path / "no_rms.yaml"
+    _write_filestorage(p, camera_matrix=K, xi=np.array([[XI]]), distortion_coefficients=np.array([D]),
+                       image_width=1280, image_height=1024)
+    assert calibration_rms(p) is None
+    assert calibration_rms(Path(__file__).parent / "data" / "ocamcalib" / "calib_results.txt") is None
+    assert calibration_rms(tmp_path) is None  # a folder (a dataset view) keeps none
+    q = tmp_path / "bad_rms.yaml"
+    _write_filestorage(q, camera_matrix=K, xi=np.array([[XI]]), distortion_coefficients=np.array([D]),
+                       image_width=1280, image_height=1024, rms=-1.0)
+    with pytest.raises(CatadioptricError, match=r"bad_rms.yaml: rms: expected a non-negative number of pixels, "
+                                                r"got -1.0"):
+        calibration_rms(q)
 
 
 def test_a_partial_file_names_the_file_and_the_key(tmp_path):

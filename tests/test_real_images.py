@@ -142,12 +142,16 @@ def test_relative_pose_of_the_board_with_the_chessboard_preset(tmp_path):
     out = tmp_path / "pose"
     ext = json.loads((MEI / "board_extrinsics.json").read_text())
     rms = ext["rms"]  # the calibration's reprojection rms, as OpenCV reported it
-    code = main(["relative-pose", str(MEI / a), str(MEI / b), "--rig", str(MEI / "mei_omnidir.yaml"),
+    # kept in the calibration file, as OpenCV's omnidir sample writes it: relative-pose reads it there
+    calib = tmp_path / "mei_omnidir.yaml"
+    calib.write_text((MEI / "mei_omnidir.yaml").read_text() + f"rms: {rms!r}\n")
+    code = main(["relative-pose", str(MEI / a), str(MEI / b), "--rig", str(calib),
                  "--mask", str(MEI / "masks" / a), "--mask-b", str(MEI / "masks" / b), "--preset", "chessboard",
-                 "--calibration-rms", str(rms), "--out", str(out)])
+                 "--out", str(out)])
     pose = json.loads((out / "pose.json").read_text())
     assert code == 3 and pose["ambiguous"], pose["notes"]
     assert any(f"calibration's rms, {rms:g} px" in n for n in pose["notes"]), pose["notes"]
+    assert any(f"the rms kept in {calib}" in n for n in pose["notes"]), pose["notes"]
     # the preset says the lines are a board's: its half-turn twins are listed and named as ties
     assert "symmetric_target" in pose["evidence"]["ambiguous_by"] and pose["evidence"]["twins"]
     ext = ext["views"]

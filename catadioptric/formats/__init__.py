@@ -9,7 +9,7 @@ import os
 
 from .._checks import CatadioptricError
 
-__all__ = ["load_camera", "calibration_format", "CALIBRATION_FORMATS"]
+__all__ = ["load_camera", "calibration_rms", "calibration_format", "CALIBRATION_FORMATS"]
 
 #: the formats :func:`load_camera` reads
 CALIBRATION_FORMATS = ("opencv", "kalibr", "ocamcalib")
@@ -67,3 +67,16 @@ def load_camera(path, *, camera: str | None = None):
     from .ocamcalib import read_ocamcalib
 
     return read_ocamcalib(path)
+
+
+def calibration_rms(path) -> float | None:
+    """The reprojection rms (pixels) a calibration file keeps, None when it keeps none: OpenCV's
+    ``rms`` (:func:`.opencv.read_opencv_rms`); Kalibr's camchain and OCamCalib's
+    ``calib_results.txt`` never hold it (the tools print it). For
+    ``relative_pose(..., calibration_rms_px=)``."""
+    path = os.fspath(path)
+    if os.path.isfile(path) and calibration_format(path) == "opencv":
+        from .opencv import read_opencv_rms
+
+        return read_opencv_rms(path)
+    return None

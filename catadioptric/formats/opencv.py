@@ -9,7 +9,7 @@ import numpy as np
 from .._checks import CatadioptricError
 from .rigmodel import as_export_model, float_text, header_lines
 
-__all__ = ["opencv_yaml", "read_opencv", "OPENCV_KEYS"]
+__all__ = ["opencv_yaml", "read_opencv", "read_opencv_rms", "OPENCV_KEYS"]
 
 
 # ------------------------------------------------------------------ writer
@@ -84,3 +84,27 @@ def read_opencv(path: str):
         return MeiCamera(size[0][0], size[1][0], float(xi[0]), K.reshape(3, 3), tuple(D))
     except CatadioptricError as exc:
         raise CatadioptricError(f"{path}: {exc}") from None
+
+
+def read_opencv_rms(path: str) -> float | None:
+    """The calibration's reprojection rms in pixels, when the file keeps it as a number ``rms``
+    (OpenCV's own omnidir sample, ``omni_calibration``, writes the rms that ``cv2.omnidir.calibrate``
+    returns under that key); None when it does not. A negative or non-finite ``rms`` is an error
+    naming the file."""
+    import cv2
+
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    try:
+        if not fs.isOpened():
+            raise CatadioptricError(f"{path}: not a file cv2.FileStorage can read")
+        node = fs.getNode("rms")
+        if node.empty() or node.isNone():
+            return None
+        if not (node.isReal() or node.isInt()):
+            raise CatadioptricError(f"{path}: rms: expected a number of pixels, got a node of type {node.type()}")
+        rms = float(node.real())
+    finally:
+        fs.release()
+    if not np.isfinite(rms) or rms < 0:
+        raise CatadioptricError(f"{path}: rms: expected a non-negative number of pixels, got {rms}")
+    return rms
