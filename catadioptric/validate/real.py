@@ -6,7 +6,7 @@ images of a fixed camera and a moving chessboard (every image file of the folder
 :data:`IMAGE_SUFFIXES`), ``board_extrinsics.json`` with OpenCV's pose of the board for some of
 them (and optionally its ``pattern`` of inner corners and ``square`` in metres; else the board of
 ``../shared/real``; and the calibration's reprojection ``rms`` in pixels, given to every pose as
-``calibration_rms_px``), ``masks/`` of the board, made from the extrinsics for an image without one)
+``calibration_rms_px`` when the calibration file keeps none), ``masks/`` of the board, made from the extrinsics for an image without one)
 and ``ocamcalib/`` (photographs of a room and their OCamCalib ``calib_results.txt``). An image
 the detector cannot read is reported, not fatal. The report measures:
 
@@ -171,7 +171,7 @@ def run_real(data: str, out: str, *, max_rotation_deg: float | None = None, prog
     overlays into ``out``; returns the results (JSON-ready)."""
     from ..detect import detect_lines
     from ..detect.report import write_png
-    from ..formats import load_camera
+    from ..formats import calibration_rms, load_camera
     from ..pose.twins import flag_twins
     from ..twoview import pair_overlay, pose_from_detections, settle_by_look
 
@@ -188,7 +188,9 @@ def run_real(data: str, out: str, *, max_rotation_deg: float | None = None, prog
     ext = json.load(open(os.path.join(mei, "board_extrinsics.json")))
     views = ext["views"]
     pattern, square = tuple(ext.get("pattern", BOARD_PATTERN)), float(ext.get("square", BOARD_SQUARE))
-    rms = float(ext.get("rms", 0.0))  # the calibration's reprojection rms (px), when the folder states it
+    # the calibration's reprojection rms (px): the one its file keeps, else board_extrinsics.json's, else 0
+    rms = calibration_rms(calib)
+    rms = float(ext.get("rms", 0.0)) if rms is None else rms
     names = _image_names(mei)
     if not names:
         raise CatadioptricError(f"--data: expected images ({', '.join(IMAGE_SUFFIXES)}) in {mei!r}, found none")
@@ -356,7 +358,8 @@ def real_markdown(res: dict, command: str) -> str:
          "the photograph (white circles).", ""]
     if res.get("calibration_rms_px"):
         L += [f"Every relative pose is given the calibration's reprojection rms, {res['calibration_rms_px']:.3f} px "
-              "(`board_extrinsics.json`; `--calibration-rms`), as an error each family's direction carries.", ""]
+              "(the calibration file's `rms`, else `board_extrinsics.json`'s; `relative-pose --calibration-rms`), as "
+              "an error each family's direction carries.", ""]
     if res["max_rotation_deg"] is not None:
         L += [f"Prior: the views turn by at most {res['max_rotation_deg']} degrees.", ""]
     if res.get("masks_made"):
