@@ -254,8 +254,8 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     chosen). The answer that agrees best is the
     answer when it agrees better than every other by at least ``bar`` (by any margin when it is the
     geometry's own first answer: the two cues then agree, and only an answer that overturns the
-    lines' ranking needs the bar) and the geometry keeps it (its cost within the matching's bar of the best: one of the answers the geometry could not
-    tell apart, refined as the best was), and no rotation near it agrees better by ``bar``
+    lines' ranking needs the bar) and the geometry keeps it (its cost within the matching's bar of
+    the best: one of the answers the geometry could not tell apart, refined as the best was), and no rotation near it agrees better by ``bar``
     (:meth:`~catadioptric.photometric.RotationAgreement.best_near`: the answer is where the images
     agree, not only the best of the answers). ``res`` then holds it, decisive, its candidates first;
     its ``margin`` stays the geometry's (negative when the geometry ranked another first). What was measured
@@ -502,6 +502,19 @@ def image_pair_markdown(summary: dict, command: str) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _calibration_rms(args) -> tuple[float, list | None]:
+    """``--calibration-rms``, or when not given the largest rms the rigs' calibration files keep
+    (OpenCV's omnidir sample writes one; :func:`catadioptric.formats.calibration_rms`), else 0; with
+    the files it came from (None when given or none kept)."""
+    if args.calibration_rms is not None:
+        return args.calibration_rms, None
+    from .formats import calibration_rms
+
+    kept = [(r, calibration_rms(r)) for r in dict.fromkeys((args.rig, args.rig_b or args.rig))]
+    kept = [(r, v) for r, v in kept if v is not None]
+    return (max(v for _, v in kept), [r for r, _ in kept]) if kept else (0.0, None)
+
+
 def _run(args) -> int:
     import os
     import shlex
@@ -538,13 +551,7 @@ def _run(args) -> int:
         opts["threshold"] = args.threshold
     opts = preset_options(args.preset, opts)
     symmetric = args.symmetric_target or args.preset == "chessboard"
-    rms, rms_from = args.calibration_rms, None
-    if rms is None:  # the calibration's own rms when its file keeps one (OpenCV's omnidir sample writes it)
-        from .formats import calibration_rms
-
-        kept = [(r, calibration_rms(r)) for r in dict.fromkeys((args.rig, args.rig_b or args.rig))]
-        kept = [(r, v) for r, v in kept if v is not None]
-        rms, rms_from = (max(v for _, v in kept), [r for r, _ in kept]) if kept else (0.0, None)
+    rms, rms_from = _calibration_rms(args)
     res = relative_pose_from_images(images[0], images[1], cam_a, cam_b, detect_options=opts,
                                     min_pixels=args.min_pixels, max_rotation_deg=args.max_rotation,
                                     decisive=args.decisive, decisive_matching=args.decisive_matching,
