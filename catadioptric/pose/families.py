@@ -167,16 +167,13 @@ def fit_view_families(view: ViewLines, *, keys=None, seed=0, f_scale: float = 1.
     central = is_central(view.cam)
     planes_only = central or not exact
     centre = rays_centre(view.cam)
-    model_error_rad = 0.0
-    if model_error_px:
+    model_error_rad = floor_deg = 0.0
+    if model_error_px or calibration_rms_px:
         from .central import rad_per_px
 
-        model_error_rad = float(model_error_px) * rad_per_px(view.cam)
-    floor_deg = 0.0
-    if calibration_rms_px:
-        from .central import rad_per_px
-
-        floor_deg = float(np.degrees(float(calibration_rms_px) * rad_per_px(view.cam)))
+        per_px = rad_per_px(view.cam)
+        model_error_rad = float(model_error_px) * per_px
+        floor_deg = float(np.degrees(float(calibration_rms_px) * per_px))
     for key in (fams if keys is None else [k for k in keys if k in fams]):
         idx = fams[key]
         picks = [_spread(len(view.uv[i]), max_pixels) for i in idx]
@@ -213,7 +210,8 @@ def fit_view_families(view: ViewLines, *, keys=None, seed=0, f_scale: float = 1.
             if s @ h < 0:
                 s = -s
                 pl = -pl
-        est[key] = FamilyEstimate(key=key, direction=s, cov=with_floor(s, cov, floor_deg), lines=[idx[k] for k in keep], pluecker=pl,
+        est[key] = FamilyEstimate(key=key, direction=s, cov=with_floor(s, cov, floor_deg), lines=[idx[k] for k in keep],
+                                  pluecker=pl,
                                   normals=normals, centre=centre, inv_distance=rho, inv_distance_std=rho_sd,
                                   inliers=list(inl), sigma=sig, rms=rms,
                                   dropped={idx[k]: v for k, v in dropped.items()}, normal_covs=ncov)
