@@ -65,6 +65,23 @@ def test_projection_jacobian_matches_finite_differences(name):
         assert np.max(np.linalg.norm(fd - G[:, :, k], axis=-1) / np.linalg.norm(G, axis=(1, 2))) < 1e-6
 
 
+@pytest.mark.parametrize("name", ["hyperboloid_9pct", "sphere", "ellipsoid", "paraboloid"])
+def test_compiled_projection_jacobian_is_the_bordered_system_solved_whole(name):
+    """The compiled block elimination (a cofactor inverse of the 3 x 3 block) and the whole bordered
+    4 x 4 system solved by a pseudo-inverse (its fallback where the block is singular) give the same
+    derivative: they differ by the rounding of the two solves (the block's condition number times
+    the machine epsilon, below 1e-9 of the derivative's size on these rigs' pixels)."""
+    from catadioptric.linefit.jacobian import _bordered_jacobian, _uv_jacobian
+
+    cam = preset(name)
+    rays = cam.backproject(cam.pinhole.pixel_grid(40).reshape(-1, 2))
+    rng = np.random.default_rng(2)
+    P = (rays.origins + rng.uniform(0.1, 30.0, len(rays.valid))[:, None] * rays.directions)[rays.valid]
+    r = rays.origins[rays.valid]
+    G, B = _uv_jacobian(cam, r, P), _bordered_jacobian(cam, r, P)
+    assert np.max(np.abs(G - B).max(axis=(1, 2)) / np.abs(G).max(axis=(1, 2))) < 1e-9
+
+
 @pytest.mark.parametrize("name", RIGS + ["sphere_axial"])
 def test_linear_candidates_hold_the_line_and_the_axis_of_axial_rigs(name):
     cam = _cam(name) if name in SEGMENTS else preset(name)

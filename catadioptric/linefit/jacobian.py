@@ -5,6 +5,7 @@ import numpy as np
 
 from .._checks import CatadioptricError, as_float_array
 from ..cameras import CatadioptricCamera
+from ._kernels import uv_jacobian_rows
 
 
 # --------------------------------------------------------------------------- projection with derivatives
@@ -89,10 +90,33 @@ def image_jacobian(cam: CatadioptricCamera, mirror_points, points) -> np.ndarray
 
 
 def _uv_jacobian(cam: CatadioptricCamera, r, p):
-    """d uv / d p ``(n, 2, 3)`` at reflection points ``r (n, 3)`` of points ``p (n, 3)``."""
+    """d uv / d p ``(n, 2, 3)`` at reflection points ``r (n, 3)`` of points ``p (n, 3)``.
+
+    Fermat's principle: ``(r, mu)`` solves ``w + u + mu grad Omega = 0``, ``Omega(r) = 0`` (``w``,
+    ``u`` unit vectors from the camera's centre ``c`` and from ``p`` to ``r``); differentiated in
+    ``p``, the bordered system ``[[M, g], [g^T, 0]] [dr/dp; dmu/dp] = [Pu; 0]`` with ``M = Pw + Pu +
+    mu Hess(Omega)`` (``Pw``, ``Pu`` the projectors across ``w``, ``u`` over the distances, ``g =
+    grad Omega``) is solved by block elimination with the closed-form inverse of the symmetric
+    3 x 3 ``M``, then the pinhole gives ``d uv / d r`` (compiled, one row at a time:
+    :func:`catadioptric.linefit._kernels.uv_jacobian_rows`). Where ``M`` is singular and the
+    bordered system is not, that system is solved whole (:func:`_bordered_jacobian`)."""
     m = cam.mirror
-    c = cam.center
-    a = r - c
+    r = np.ascontiguousarray(r, dtype=float)
+    p = np.ascontiguousarray(p, dtype=float)
+    out = np.empty((len(r), 2, 3))
+    bad = uv_jacobian_rows(r, p, np.ascontiguousarray(cam.center, dtype=float), float(m.A), float(m.B),
+                           np.ascontiguousarray(cam.R_cam_from_mirror, dtype=float),
+                           np.ascontiguousarray(cam.pinhole.K, dtype=float), out)
+    if bad.any():
+        out[bad] = _bordered_jacobian(cam, r[bad], p[bad])
+    return out
+
+
+def _bordered_jacobian(cam: CatadioptricCamera, r, p):
+    """:func:`_uv_jacobian` by a pseudo-inverse of the whole bordered 4 x 4 system (the rows whose
+    block ``M`` is singular)."""
+    m = cam.mirror
+    a = r - cam.center
     b = r - p
     la = np.linalg.norm(a, axis=-1)
     lb = np.linalg.norm(b, axis=-1)
@@ -103,27 +127,14 @@ def _uv_jacobian(cam: CatadioptricCamera, r, p):
     eye = np.eye(3)
     Pw = (eye - w[:, :, None] * w[:, None, :]) / la[:, None, None]
     Pu = (eye - u[:, :, None] * u[:, None, :]) / lb[:, None, None]
-    hess_omega = 2.0 * np.diag([1.0, 1.0, m.A])
-    # the bordered system [[M, g], [g^T, 0]] [dr/dp; dmu/dp] = [Pu; 0], M = Pw + Pu + mu Hess(Omega),
-    # solved by block elimination with the closed-form inverse of the symmetric 3 x 3 M (batched,
-    # elementwise: far faster than a batched LAPACK solve of tiny systems)
-    M = Pw + Pu + mu[:, None, None] * hess_omega
-    Mi = _inverse3(M)
-    Mg = np.einsum("nij,nj->ni", Mi, g)
-    gMg = np.sum(g * Mg, axis=-1)
-    MiPu = Mi @ Pu
-    with np.errstate(divide="ignore", invalid="ignore"):
-        dr_dp = MiPu - Mg[:, :, None] * (np.einsum("ni,nij->nj", g, MiPu) / gMg[:, None])[:, None, :]
-    bad = ~np.all(np.isfinite(dr_dp), axis=(1, 2))
-    if bad.any():  # M singular where the bordered system is not: solve that one directly
-        K = np.zeros((int(bad.sum()), 4, 4))
-        K[:, :3, :3] = M[bad]
-        K[:, :3, 3] = g[bad]
-        K[:, 3, :3] = g[bad]
-        rhs = np.zeros((int(bad.sum()), 4, 3))
-        rhs[:, :3, :] = Pu[bad]
-        dr_dp[bad] = (np.linalg.pinv(K) @ rhs)[:, :3, :]
     n = len(r)
+    K = np.zeros((n, 4, 4))
+    K[:, :3, :3] = Pw + Pu + mu[:, None, None] * (2.0 * np.diag([1.0, 1.0, m.A]))
+    K[:, :3, 3] = g
+    K[:, 3, :3] = g
+    rhs = np.zeros((n, 4, 3))
+    rhs[:, :3, :] = Pu
+    dr_dp = (np.linalg.pinv(K) @ rhs)[:, :3, :]
     R = cam.R_cam_from_mirror
     X = a @ R.T
     Kp = cam.pinhole.K
@@ -135,16 +146,3 @@ def _uv_jacobian(cam: CatadioptricCamera, r, p):
     duv_dX[:, 1, 1] = Kp[1, 1] / Z
     duv_dX[:, 1, 2] = -Kp[1, 1] * X[:, 1] / Z**2
     return duv_dX @ R @ dr_dp
-
-
-def _inverse3(M):
-    """Inverses of 3 x 3 matrices ``M (n, 3, 3)`` by cofactors (NaN where singular)."""
-    a, b, c = M[:, 0, 0], M[:, 0, 1], M[:, 0, 2]
-    d, e, f = M[:, 1, 0], M[:, 1, 1], M[:, 1, 2]
-    g, h, i = M[:, 2, 0], M[:, 2, 1], M[:, 2, 2]
-    C = np.stack([np.stack([e * i - f * h, c * h - b * i, b * f - c * e], -1),
-                  np.stack([f * g - d * i, a * i - c * g, c * d - a * f], -1),
-                  np.stack([d * h - e * g, b * g - a * h, a * e - b * d], -1)], -2)
-    det = a * C[:, 0, 0] + b * C[:, 1, 0] + c * C[:, 2, 0]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return C / det[:, None, None]
