@@ -6,6 +6,10 @@ and cached, like :mod:`catadioptric.solvers._kernels`:
   One pass over the pixels; each pixel touches 10 unknowns (its columns ``cols``) and its own
   depth, so its 10 x 10 block of the reduced system is formed and added where it belongs, in
   pixel order (the order in which ``numpy.bincount`` would add the same terms).
+* :func:`pixel_jacobians`, of the two-view refinement: each pixel's residual differentiated by its
+  10 unknowns and its depth (:meth:`catadioptric.pose.two_view_problem.Problem.jacobian`
+  documents them), from its image's derivative by its point and the per-family and per-line
+  derivatives of the point.
 * :func:`alignment_table`, of the lines matched in their order
   (:class:`catadioptric.pose.matching.LinesInOrder`): the dynamic programme of a monotone alignment.
 * :func:`neighbour_costs`, of the RANSAC by neighbours (:func:`catadioptric.pose.matching.match_lines`):
@@ -14,10 +18,12 @@ and cached, like :mod:`catadioptric.solvers._kernels`:
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
-__all__ = ["reduced_normal_equations", "alignment_table", "neighbour_costs"]
+__all__ = ["reduced_normal_equations", "pixel_jacobians", "alignment_table", "neighbour_costs"]
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -56,6 +62,75 @@ def reduced_normal_equations(A, b, e, w, lam, cols, ny):
             for j in range(10):
                 S[ci, cols[n, j]] += (wa0 * A[n, 0, j] + wa1 * A[n, 1, j]) - Hym[n, i] * Hym[n, j] / hd
     return S, g, Hym, gm, Hmm_d
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def pixel_jacobians(G, V, mu, owner, fam, in_b, k, rho, ds_da, ds_db, du, s, R, dthat, that, A, b):
+    """``A (N, 2, 10)`` and ``b (N, 2)`` of :meth:`catadioptric.pose.two_view_problem.Problem.jacobian`,
+    filled in place: ``G (N, 2, 3)`` each pixel's image derivative by its point (in its own view's
+    frame; NaN: no image), ``V (N, 3)`` its point from ``c_A`` over the scale ``k``, ``mu (N,)`` its
+    depth, ``owner (N,)`` its line, ``fam (L,)`` each line's family, ``in_b (N,)`` whether it is B's;
+    ``rho (L,)``, ``du (L, 3)`` each line's inverse distance and its foot's derivative by its angle;
+    ``ds_da``, ``ds_db``, ``s (F, 3)`` each family's direction and its derivatives; ``R``, ``that``
+    and ``dthat (2, 3)`` the rotation, the baseline's direction and its derivatives. A row with
+    anything not finite is zero (a pixel whose point has no image)."""
+    N = G.shape[0]
+    dP = np.empty((3, 6))
+    GB = np.empty((2, 3))
+    RV = np.empty(3)
+    J6 = np.empty((2, 6))
+    for n in range(N):
+        ln = owner[n]
+        f = fam[ln]
+        rj = rho[ln]
+        km = k * mu[n] / rj
+        for i in range(3):
+            dP[i, 0] = k * V[n, i]
+            dP[i, 1] = km * ds_da[f, i]
+            dP[i, 2] = km * ds_db[f, i]
+            dP[i, 3] = k * du[ln, i] / rj
+            dP[i, 4] = -k * V[n, i] / rj
+            dP[i, 5] = k * s[f, i] / rj
+        for i in range(2):
+            for j in range(3):
+                if in_b[n]:
+                    GB[i, j] = G[n, i, 0] * R[0, j] + G[n, i, 1] * R[1, j] + G[n, i, 2] * R[2, j]
+                else:
+                    GB[i, j] = G[n, i, j]
+        for i in range(2):
+            for j in range(6):
+                J6[i, j] = GB[i, 0] * dP[0, j] + GB[i, 1] * dP[1, j] + GB[i, 2] * dP[2, j]
+        for i in range(2):
+            for j in range(5):
+                A[n, i, j] = 0.0
+            A[n, i, 5] = J6[i, 0]
+            for j in range(4):
+                A[n, i, 6 + j] = J6[i, 1 + j]
+            b[n, i] = J6[i, 5]
+        if in_b[n]:
+            for i in range(3):
+                RV[i] = R[i, 0] * V[n, 0] + R[i, 1] * V[n, 1] + R[i, 2] * V[n, 2]
+            for i in range(2):
+                g0, g1, g2 = G[n, i, 0], G[n, i, 1], G[n, i, 2]
+                # G (-[RV]_x): the rotation's columns
+                A[n, i, 0] = k * (g2 * RV[1] - g1 * RV[2])
+                A[n, i, 1] = k * (g0 * RV[2] - g2 * RV[0])
+                A[n, i, 2] = k * (g1 * RV[0] - g0 * RV[1])
+                A[n, i, 3] = k * (g0 * dthat[0, 0] + g1 * dthat[0, 1] + g2 * dthat[0, 2])
+                A[n, i, 4] = k * (g0 * dthat[1, 0] + g1 * dthat[1, 1] + g2 * dthat[1, 2])
+                A[n, i, 5] += k * (g0 * that[0] + g1 * that[1] + g2 * that[2])
+        ok = True
+        for i in range(2):
+            if not (math.isfinite(b[n, i])):
+                ok = False
+            for j in range(10):
+                if not math.isfinite(A[n, i, j]):
+                    ok = False
+        if not ok:
+            for i in range(2):
+                b[n, i] = 0.0
+                for j in range(10):
+                    A[n, i, j] = 0.0
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

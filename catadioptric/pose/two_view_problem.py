@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..linefit.jacobian import image_jacobian, project_with_jacobian
+from ._kernels import pixel_jacobians
 from .meetings import meeting_residuals, meeting_terms
 from .rotation import exp_rotation, skew
 
@@ -83,6 +84,9 @@ class Problem:
         self.cols[:, 7] = 7 + 2 * f
         self.cols[:, 8] = 6 + 2 * self.F + 2 * owner
         self.cols[:, 9] = 7 + 2 * self.F + 2 * owner
+        self.owner_c = np.ascontiguousarray(owner, dtype=np.int64)
+        self.fam_c = np.ascontiguousarray(self.fam, dtype=np.int64)
+        self.view_b = np.ascontiguousarray(view == 1)
         self.warm_start = bool(warm_start)
         self.r_last = None  # the reflection points of the last state the Jacobian was taken at
 
@@ -160,44 +164,26 @@ class Problem:
 
     def jacobian(self, R, y, mu, state):
         """The local Jacobian ``A (N, 2, 10)`` and depth column ``b (N, 2)`` at the state of
-        :meth:`residuals` for the same ``R, y, mu``."""
+        :meth:`residuals` for the same ``R, y, mu``: each pixel's image derivative by its point
+        (:func:`catadioptric.linefit.image_jacobian`) times the point's derivatives by the pose,
+        its family's direction, its line and its depth (compiled, one pixel at a time:
+        :func:`catadioptric.pose._kernels.pixel_jacobians`); zero rows where a point has no image."""
         X, r, V = state
         self.r_last = r
         s, nv, al, rho, u, that, ntv, k = self.parts(y)
-        f, l = self.fam[self.owner], self.owner
-        inb = self.view == 1
         G = self._image_jacobians(r, X)
-        rj = rho[l]
-        e1f, e2f = self.e1[f], self.e2[f]
-        sf = s[f]
-        nvf = nv[f]
-        ds_da = (e1f - sf * np.sum(sf * e1f, 1, keepdims=True)) / nvf[:, None]
-        ds_db = (e2f - sf * np.sum(sf * e2f, 1, keepdims=True)) / nvf[:, None]
-        du = -np.sin(al[l])[:, None] * self.e1[f] + np.cos(al[l])[:, None] * self.e2[f]
-        dP = np.empty((self.N, 3, 6))  # sigma, a, b, alpha, rho~, mu (in A)
-        dP[:, :, 0] = k * V
-        dP[:, :, 1] = (k * mu / rj)[:, None] * ds_da
-        dP[:, :, 2] = (k * mu / rj)[:, None] * ds_db
-        dP[:, :, 3] = k * du / rj[:, None]
-        dP[:, :, 4] = -k * V / rj[:, None]
-        dP[:, :, 5] = k * sf / rj[:, None]
-        GB = G.copy()
-        GB[inb] = G[inb] @ R  # d uv / d P for view B goes through R
-        A = np.zeros((self.N, 2, 10))
-        J6 = GB @ dP
-        A[:, :, 5] = J6[:, :, 0]
-        A[:, :, 6:10] = J6[:, :, 1:5]
-        b = J6[:, :, 5]
-        if inb.any():
-            RV = V[inb] @ R.T
-            A[inb, :, 0:3] = k * (G[inb] @ (-skew(RV)))
-            dthat = np.stack([(self.f1 - that * (that @ self.f1)) / ntv, (self.f2 - that * (that @ self.f2)) / ntv],
-                             axis=0)  # (2, 3)
-            A[inb, :, 3:5] = k * np.einsum("nij,kj->nik", G[inb], dthat)
-            A[inb, :, 5] += k * np.einsum("nij,j->ni", G[inb], that)  # the baseline scales with sigma too
-        bad = ~np.isfinite(r).all(1) | ~np.isfinite(A).all((1, 2)) | ~np.isfinite(b).all(1)
-        A[bad] = 0.0
-        b[bad] = 0.0
+        ds_da = (self.e1 - s * np.sum(s * self.e1, 1, keepdims=True)) / nv[:, None]
+        ds_db = (self.e2 - s * np.sum(s * self.e2, 1, keepdims=True)) / nv[:, None]
+        e1l, e2l = self.e1[self.fam], self.e2[self.fam]
+        du = -np.sin(al)[:, None] * e1l + np.cos(al)[:, None] * e2l
+        dthat = np.stack([(self.f1 - that * (that @ self.f1)) / ntv, (self.f2 - that * (that @ self.f2)) / ntv],
+                         axis=0)  # (2, 3)
+        A = np.empty((self.N, 2, 10))
+        b = np.empty((self.N, 2))
+        pixel_jacobians(np.ascontiguousarray(G), np.ascontiguousarray(V), np.ascontiguousarray(mu, dtype=float),
+                        self.owner_c, self.fam_c, self.view_b, float(k), np.ascontiguousarray(rho), ds_da, ds_db,
+                        np.ascontiguousarray(du), np.ascontiguousarray(s), np.ascontiguousarray(R, dtype=float),
+                        dthat, np.ascontiguousarray(that), A, b)
         return A, b
 
     def _image_jacobians(self, r, X):
