@@ -26,7 +26,8 @@ def closest_depths(q, s, o, d):
 
 def depth_refine(cam, q, s, uv, lam, iters: int = 4, step_cap=None):
     """Gauss-Newton on the depth of each pixel on fixed lines: ``q, s (..., 3)``, ``uv (..., 2)``,
-    ``lam (...)`` broadcast together. Returns ``lam``, ``dist`` (pixels, inf where no image),
+    ``lam (...)`` broadcast together; each step's images continued from the last step's reflection
+    points (:func:`catadioptric.projection.project_from`). Returns ``lam``, ``dist`` (pixels, inf where no image),
     ``uv_fit``, ``visible``."""
     shape = np.broadcast_shapes(q.shape[:-1], s.shape[:-1], uv.shape[:-1], np.shape(lam))
     q = np.broadcast_to(q, shape + (3,)).reshape(-1, 3)
@@ -35,9 +36,12 @@ def depth_refine(cam, q, s, uv, lam, iters: int = 4, step_cap=None):
     lam = np.broadcast_to(lam, shape).reshape(-1).copy()
     if step_cap is None:
         step_cap = np.linalg.norm(q + lam[:, None] * s, axis=-1) * 0.5 + cam.mirror.scale
+    r = None
     for it in range(iters + 1):
         P = q + lam[:, None] * s
-        uvp, G, vis = project_with_jacobian(cam, P, uvf)
+        # each step's images continued from the last step's reflection points (a step moves a
+        # point along its line by a little; the search for every image where that fails)
+        uvp, G, vis, r = project_with_jacobian(cam, P, uvf, mirror_points=True, start=r)
         e = uvp - uvf
         if it == iters:
             break
