@@ -65,7 +65,9 @@ def plane_distances(n: np.ndarray, rays: Rays) -> np.ndarray:
     one = np.ndim(n) == 1
     n = np.atleast_2d(n)
     num = np.abs(n @ rays.d.T)
-    den = np.linalg.norm(np.einsum("mki,hk->hmi", rays.Jd, n), axis=-1)
+    M = len(rays.d)
+    # Jd^T n of every pixel and normal as one product: (H, 3) by (3, M 2)
+    den = np.linalg.norm((n @ rays.Jd.transpose(1, 0, 2).reshape(3, 2 * M)).reshape(len(n), M, 2), axis=-1)
     with np.errstate(divide="ignore", invalid="ignore"):
         r = np.where((den > 0) & rays.ok[None], num / den, np.inf)
     return r[0] if one else r
@@ -78,13 +80,13 @@ def refine_plane(rays: Rays, n0: np.ndarray | None = None, iters: int = 8, tol: 
     d, Jd = rays.d[rays.ok], rays.Jd[rays.ok]
     w = np.ones(len(d))
     if n0 is not None:
-        w = 1.0 / np.maximum(np.linalg.norm(np.einsum("mki,k->mi", Jd, n0), axis=-1), 1e-300) ** 2
+        w = 1.0 / np.maximum(np.linalg.norm(n0 @ Jd, axis=-1), 1e-300) ** 2
     n = n0
     for _ in range(iters):
-        n_new = np.linalg.eigh(np.einsum("m,mi,mj->ij", w, d, d))[1][:, 0]
+        n_new = np.linalg.eigh((d * w[:, None]).T @ d)[1][:, 0]
         if n is not None and n_new @ n < 0:
             n_new = -n_new
-        w = 1.0 / np.maximum(np.linalg.norm(np.einsum("mki,k->mi", Jd, n_new), axis=-1), 1e-300) ** 2
+        w = 1.0 / np.maximum(np.linalg.norm(n_new @ Jd, axis=-1), 1e-300) ** 2
         done = n is not None and np.linalg.norm(n_new - n) < tol
         n = n_new
         if done:
