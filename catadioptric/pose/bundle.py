@@ -247,10 +247,29 @@ def _trial(pb, R, y, mu, settle):
     return mu, e, state
 
 
+def _predicted_decrease(A, b, e, w, step, pb, sigma, corners):
+    """The cost decrease the linearised residuals promise for ``step = (dy, dmu)``, in the cost's
+    units (the robust loss's slope at each pixel is its weight ``w``); ``corners``: ``(Sc, gc)`` of
+    :func:`_corner_system` (None: no meetings)."""
+    dy, dmu = step
+    e0 = np.nan_to_num(e)
+    de = np.einsum("nij,nj->ni", A, dy[pb.cols]) + b * dmu[:, None]
+    pred = -float(np.sum(w * np.sum(de * (2.0 * e0 + de), axis=1)))
+    Sc, gc = corners
+    if Sc is not None:
+        pred -= float(2.0 * gc @ dy + dy @ Sc @ dy)
+    return pred / sigma**2
+
+
 def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter, tol_chi2, settle=False, hold_scale=False, cmask=None):
-    """Levenberg-Marquardt. The damping falls tenfold after each accepted step, down to 1e-15: the
-    flat direction of a near-central rig (the scene's scale) has an eigenvalue many orders below
-    the diagonal it is damped with, and a damping that stays near 1e-3 would stall along it.
+    """Levenberg-Marquardt, its damping set by each step's gain ratio (the cost's decrease over the
+    one the linearised residuals promised; Nielsen's rule: after an accepted step the damping is
+    multiplied by ``max(1/3, 1 - (2 ratio - 1)^3)``, down to 1e-15, after rejected ones by 2, 4,
+    8, ...). The damping must be free to fall far: the flat direction of a near-central rig (the
+    scene's scale) has an eigenvalue many orders below the diagonal it is damped with. A fixed
+    tenfold fall after every accepted step (and rise after every rejected one) had every other
+    step rejected where the cost's valley curves (0.77 of the trial steps on 32 benchmark draws
+    at 1 and 2 px; validate/NOTES.md, 2026-11-29).
     Stops when a step lowers the cost (chi-square units: residuals over ``sigma``) by less than
     ``tol_chi2``: along that flat direction the steps go on lowering the cost by thousandths of a
     unit, a difference the pixels cannot tell apart, and used to run to ``max_iter``. ``settle``:
@@ -262,7 +281,7 @@ def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter, tol_chi2, settle=False,
     w, cost = _weights(e, sigma, c2, robust, mask)
     Sc, gc, cc = _corner_system(pb, R, y, sigma, c2, robust, cmask)
     cost += cc
-    lam = 1e-5
+    lam, nu = 1e-5, 2.0
     it = 0
     for it in range(1, max_iter + 1):
         improved = False
@@ -275,14 +294,16 @@ def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter, tol_chi2, settle=False,
             if cost2 <= cost:
                 improved = True
                 break
-            lam *= 10.0
+            lam, nu = lam * nu, 2.0 * nu
         if not improved:
             break
+        pred = _predicted_decrease(A, b, e, w, (dy, dmu), pb, sigma, (Sc, gc))
+        ratio = min((cost - cost2) / pred, 1.0) if pred > 0 else 1.0
+        lam, nu = max(lam * max(1.0 / 3.0, 1.0 - (2.0 * ratio - 1.0) ** 3), 1e-15), 2.0
         rel = (cost - cost2) / max(cost, 1e-300)
         cost_before = cost
         R, y, mu, e = R2, y2, mu2, e2
         A, b = pb.jacobian(R, y, mu, state2)
-        lam = max(lam / 10.0, 1e-15)
         w, cost = _weights(e, sigma, c2, robust, mask)
         Sc, gc, cc = _corner_system(pb, R, y, sigma, c2, robust, cmask)
         cost += cc
