@@ -65,13 +65,14 @@ def reduced_normal_equations(A, b, e, w, lam, cols, ny):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def pixel_jacobians(G, V, mu, owner, fam, in_b, k, rho, ds_da, ds_db, du, s, R, dthat, that, A, b):
+def pixel_jacobians(G, V, mu, owner, fam, in_b, k, rho, du, fam_dirs, R, dthat, that, A, b):
     """``A (N, 2, 10)`` and ``b (N, 2)`` of :meth:`catadioptric.pose.two_view_problem.Problem.jacobian`,
     filled in place: ``G (N, 2, 3)`` each pixel's image derivative by its point (in its own view's
     frame; NaN: no image), ``V (N, 3)`` its point from ``c_A`` over the scale ``k``, ``mu (N,)`` its
     depth, ``owner (N,)`` its line, ``fam (L,)`` each line's family, ``in_b (N,)`` whether it is B's;
     ``rho (L,)``, ``du (L, 3)`` each line's inverse distance and its foot's derivative by its angle;
-    ``ds_da``, ``ds_db``, ``s (F, 3)`` each family's direction and its derivatives; ``R``, ``that``
+    ``fam_dirs (F, 3, 3)`` each family's direction and its derivatives by its two chart
+    coordinates (rows ``s``, ``ds/da``, ``ds/db``); ``R``, ``that``
     and ``dthat (2, 3)`` the rotation, the baseline's direction and its derivatives. A row with
     anything not finite is zero (a pixel whose point has no image)."""
     N = G.shape[0]
@@ -86,11 +87,11 @@ def pixel_jacobians(G, V, mu, owner, fam, in_b, k, rho, ds_da, ds_db, du, s, R, 
         km = k * mu[n] / rj
         for i in range(3):
             dP[i, 0] = k * V[n, i]
-            dP[i, 1] = km * ds_da[f, i]
-            dP[i, 2] = km * ds_db[f, i]
+            dP[i, 1] = km * fam_dirs[f, 1, i]
+            dP[i, 2] = km * fam_dirs[f, 2, i]
             dP[i, 3] = k * du[ln, i] / rj
             dP[i, 4] = -k * V[n, i] / rj
-            dP[i, 5] = k * s[f, i] / rj
+            dP[i, 5] = k * fam_dirs[f, 0, i] / rj
         for i in range(2):
             for j in range(3):
                 if in_b[n]:

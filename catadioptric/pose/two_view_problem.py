@@ -181,9 +181,9 @@ class Problem:
         A = np.empty((self.N, 2, 10))
         b = np.empty((self.N, 2))
         pixel_jacobians(np.ascontiguousarray(G), np.ascontiguousarray(V), np.ascontiguousarray(mu, dtype=float),
-                        self.owner_c, self.fam_c, self.view_b, float(k), np.ascontiguousarray(rho), ds_da, ds_db,
-                        np.ascontiguousarray(du), np.ascontiguousarray(s), np.ascontiguousarray(R, dtype=float),
-                        dthat, np.ascontiguousarray(that), A, b)
+                        self.owner_c, self.fam_c, self.view_b, float(k), np.ascontiguousarray(rho),
+                        np.ascontiguousarray(du), np.ascontiguousarray(np.stack([s, ds_da, ds_db], axis=1)),
+                        np.ascontiguousarray(R, dtype=float), dthat, np.ascontiguousarray(that), A, b)
         return A, b
 
     def _image_jacobians(self, r, X):
