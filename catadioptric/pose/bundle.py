@@ -268,7 +268,7 @@ def _lm(pb, R, y, mu, sigma, c2, robust, mask, max_iter, tol_chi2, settle=False,
     8, ...). The damping must be free to fall far: the flat direction of a near-central rig (the
     scene's scale) has an eigenvalue many orders below the diagonal it is damped with. A fixed
     tenfold fall after every accepted step (and rise after every rejected one) had every other
-    step rejected where the cost's valley curves (0.77 of the trial steps on 32 benchmark draws
+    step rejected where the cost's valley curves (1.3 times the trial steps on 32 benchmark draws
     at 1 and 2 px; validate/NOTES.md, 2026-11-29).
     Stops when a step lowers the cost (chi-square units: residuals over ``sigma``) by less than
     ``tol_chi2``: along that flat direction the steps go on lowering the cost by thousandths of a
