@@ -358,3 +358,16 @@ def test_the_medians_interval_resamples_pairs_not_draws():
     with_missing = three + [[None, float("nan")]]
     assert median_interval(with_missing) == b
     assert median_interval([[None]])["median"] is None
+
+
+def test_the_angle_of_a_zero_translation_is_nan_without_a_warning():
+    """A translation found zero (a camera turned in place) has no direction to compare: nan, and no
+    RuntimeWarning in the benchmark's output."""
+    import warnings
+
+    from catadioptric.validate.relative_pose import angle_between_deg
+
+    assert abs(angle_between_deg([1.0, 0.0, 0.0], [0.0, 2.0, 0.0]) - 90.0) < 1e-12
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert np.isnan(angle_between_deg([0.0, 0.0, 0.0], [0.0, 2.0, 0.0]))

@@ -56,11 +56,14 @@ def _central_fit(cam):
 
 
 def angle_between_deg(a, b) -> float:
-    """The angle between two 3-vectors (degrees; a translation's direction against the truth)."""
+    """The angle between two 3-vectors (degrees; a translation's direction against the truth); nan
+    when either is zero (a translation found zero: the camera turned in place)."""
     a = np.asarray(a, float)
     b = np.asarray(b, float)
-    c = a @ b / (np.linalg.norm(a) * np.linalg.norm(b))
-    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
+    n = np.linalg.norm(a) * np.linalg.norm(b)
+    if n == 0:
+        return float("nan")
+    return float(np.degrees(np.arccos(np.clip(a @ b / n, -1.0, 1.0))))
 
 
 def _rotation_error_deg(R, R_gt) -> float:
