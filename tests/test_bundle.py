@@ -242,3 +242,55 @@ def test_the_depth_column_is_the_jacobians():
     _, b = pb.jacobian(R, y, mu, state)
     assert np.any(b[view == 1] != 0) and np.any(b[view == 0] != 0)
     assert np.allclose(pb.depth_column(R, y, state), b, rtol=1e-12, atol=1e-12 * np.abs(b).max())
+
+
+def test_the_predicted_decrease_is_the_costs_to_first_order():
+    """Levenberg-Marquardt's damping follows the gain ratio, the cost's decrease over the one the
+    linearised residuals promise (``_predicted_decrease``, from the Jacobian's columns ``pb.cols``
+    and the depth column): for ever smaller steps along any direction the ratio goes to 1, its
+    error falling with the step (a wrong column, sign or scale would leave it apart from 1)."""
+    from catadioptric.pose.bundle import _predicted_decrease
+    from catadioptric.pose.rotation import exp_rotation
+    from catadioptric.pose.two_view_problem import Problem
+    from catadioptric.rigs import preset
+
+    cam = preset("hyperboloid")
+    R, t = exp_rotation(np.array([0.02, -0.1, 0.05])), np.array([1.5, 0.3, 0.0])
+    lines = [(np.array([0.5, 4.0, 1.0]), np.array([1.0, 0.2, 0.1])),
+             (np.array([-3.0, 1.0, 0.5]), np.array([0.1, 1.0, -0.2]))]
+    rng = np.random.default_rng(3)
+    uv, owner, view = [], [], []
+    for li, (q, s) in enumerate(lines):
+        P = q + np.linspace(-1.0, 1.0, 15)[:, None] * s
+        for v, X in ((0, P), (1, P @ R.T + t)):
+            pr = cam.project(X)
+            k = np.argmax(pr.valid, axis=1)
+            ok = pr.valid[np.arange(len(X)), k]
+            uv.append(pr.uv[np.arange(len(X)), k][ok] + rng.normal(0.0, 1.0, (int(ok.sum()), 2)))
+            owner += [li] * int(ok.sum())
+            view += [v] * int(ok.sum())
+    uv, owner, view = np.concatenate(uv), np.array(owner), np.array(view)
+    assert np.sum(view == 1) > 10
+    c = np.zeros(3)
+    dirs = np.array([s / np.linalg.norm(s) for _, s in lines])
+    pb = Problem(cam, cam, dirs, np.array([q for q, _ in lines]), [0, 1], uv, owner, view, (c, c), R, t)
+    y = pb.start()
+    mu = np.zeros(pb.N)
+    for _ in range(3):  # the depths near their pixels, so that every point has an image
+        e, A, b = pb.evaluate(R, y, mu)
+        mu = mu - np.sum(b * e, axis=1) / np.sum(b * b, axis=1)
+    e, A, b = pb.evaluate(R, y, mu)
+    assert np.all(np.isfinite(e))
+    w = np.ones(pb.N)
+    cost0 = float(np.sum(e**2))
+    for trial in range(3):
+        dy, dmu = rng.normal(size=pb.ny), rng.normal(size=pb.N)
+        dy[:3] *= 1e-2  # radians, against metres and inverse distances
+        errors = []
+        for h in (1e-4, 1e-5):
+            R2, y2, mu2 = pb.apply(R, y, mu, h * dy, h * dmu)
+            e2, _, _ = pb.evaluate(R2, y2, mu2, jac=False)
+            pred = _predicted_decrease(A, b, e, w, (h * dy, h * dmu), pb, 1.0, (None, None))
+            errors.append(abs((cost0 - float(np.sum(e2**2))) / pred - 1.0))
+        assert errors[1] < 1e-2, errors
+        assert errors[1] < 0.3 * errors[0] or errors[1] < 1e-6, errors
