@@ -165,7 +165,7 @@ class Problem:
     def jacobian(self, R, y, mu, state):
         """The local Jacobian ``A (N, 2, 10)`` and depth column ``b (N, 2)`` at the state of
         :meth:`residuals` for the same ``R, y, mu``: each pixel's image derivative by its point
-        (:func:`catadioptric.linefit.image_jacobian`) times the point's derivatives by the pose,
+        (:func:`catadioptric.linefit.jacobian.image_jacobian`) times the point's derivatives by the pose,
         its family's direction, its line and its depth (compiled, one pixel at a time:
         :func:`catadioptric.pose._kernels.pixel_jacobians`); zero rows where a point has no image."""
         X, r, V = state
