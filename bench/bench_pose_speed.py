@@ -14,7 +14,8 @@ result (rotations, margins, lines) so that two revisions can be checked to give 
 With ``--compare REV`` the same measurement runs from a temporary ``git worktree`` of ``REV`` and
 from this checkout, alternately, ``--rounds`` times each (one process at a time: the machine's own
 drift between runs is of the size of small gains, and two processes side by side share its cores),
-and the ratio of the medians is reported. Written to ``bench/results/pose-speed.json``.
+and the ratio of the medians is reported, with each pair's median seconds (the issue's bars are per
+configuration). Written to ``bench/results/pose-speed.json``.
 
 Run (about a minute a round on two cores)::
 
@@ -89,6 +90,19 @@ def _measure(data: str, pairs: list, seeds: list, noise: float, what: str) -> di
             "digest": digest.hexdigest()}
 
 
+def _by_pair(rounds: list, pairs: list) -> dict:
+    """Each pair's median seconds over its items (the label path's seeds, the image pair, the two
+    views' detections) and the rounds: the issue's bars are per configuration."""
+    import numpy as np
+
+    out = {}
+    for x in rounds:
+        per = len(x["seconds"]) // len(pairs)
+        for i, pair in enumerate(pairs):
+            out.setdefault(pair, []).extend(x["seconds"][i * per:(i + 1) * per])
+    return {pair: float(np.median(v)) for pair, v in out.items()}
+
+
 def _run(code: str, args, what: str) -> dict:
     """One measurement in a fresh process with the package of ``code`` (a checkout's root)."""
     env = dict(os.environ, PYTHONPATH=code)
@@ -150,6 +164,7 @@ def main() -> int:
            "noise_px": args.noise, "rounds": args.rounds, "compare": args.compare, "results": {}}
     for w, by_code in runs.items():
         row = {c: {"total_seconds": [x["total"] for x in xs], "median_item_seconds": [x["median"] for x in xs],
+                   "median_seconds_by_pair": _by_pair(xs, args.pairs),
                    "digest": xs[0]["digest"], "same_digest_every_round": len({x["digest"] for x in xs}) == 1}
                for c, xs in by_code.items()}
         if args.compare:
@@ -158,6 +173,9 @@ def main() -> int:
             row["same_results"] = row[args.compare]["digest"] == row["current"]["digest"]
             print(f"{w:9s} {args.compare} {base:.2f} s -> current {cur:.2f} s: {base / cur:.2f}x, "
                   f"results {'identical' if row['same_results'] else 'DIFFER'}")
+        for pair in args.pairs:
+            print(f"  {w:9s} {pair:34s} " + "  ".join(f"{c} {row[c]['median_seconds_by_pair'][pair]:.2f} s"
+                                                  for c in by_code))
         out["results"][w] = row
     write_json(args.out, out)
     print(f"wrote {os.path.relpath(args.out)}")
