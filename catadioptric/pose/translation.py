@@ -11,7 +11,7 @@ import numpy as np
 from .._checks import CatadioptricError, as_float_array, as_rotation
 from .._numeric import cross
 
-__all__ = ["translation_from_lines", "relative_translation_from_lines", "triangulate_line", "ray_depths"]
+__all__ = ["translation_from_lines", "relative_translation_from_lines", "triangulate_line", "triangulate_lines", "ray_depths"]
 
 
 def translation_from_lines(R, world_lines, ray_lines, line_index) -> np.ndarray:
@@ -142,34 +142,67 @@ def triangulate_line(s, o, d, prior=None, iters: int = 1):
     count the near view's misses at a fraction of their weight, and where the two views' planes
     nearly coincide (a line nearly parallel to the baseline) the line follows the far view. More
     than one reweighting can run away: the miss in angle of a line through a view's centre is
-    undefined, and a line whose distance the rays barely fix moves towards it."""
-    s = np.asarray(s, float)
-    o = np.asarray(o, float)
-    d = np.asarray(d, float)
-    e1 = cross(s, [1.0, 0.0, 0.0] if abs(s[0]) < 0.8 else [0.0, 1.0, 0.0])
-    e1 /= np.linalg.norm(e1)
+    undefined, and a line whose distance the rays barely fix moves towards it. Many lines at once:
+    :func:`triangulate_lines`."""
+    o = np.asarray(o, float).reshape(-1, 3)
+    q, well = triangulate_lines(np.asarray(s, float)[None], o, d, np.zeros(len(o), dtype=int),
+                                prior=None if prior is None else np.asarray(prior, float)[None], iters=iters)
+    return q[0], bool(well[0])
+
+
+def triangulate_lines(s, o, d, line, prior=None, iters: int = 1):
+    """:func:`triangulate_line` of many lines at once: unit directions ``s (G, 3)``, rays ``o, d
+    (M, 3)`` of line ``line (M,)`` (indices into ``s``), ``prior (G, 3)`` or None. Returns ``q (G,
+    3)`` and ``well_posed (G,)``; each line's answer is that of :func:`triangulate_line` on its own
+    rays (its least squares by its 2 x 2 normal equations; a line without rays at its origin's
+    foot, not well posed)."""
+    from scipy import ndimage
+
+    s = np.asarray(s, float).reshape(-1, 3)
+    o = np.asarray(o, float).reshape(-1, 3)
+    d = np.asarray(d, float).reshape(-1, 3)
+    line = np.asarray(line, int).reshape(-1)
+    G = len(s)
+    if len(o) != len(d) or len(line) != len(d):
+        raise CatadioptricError(f"o, d, line: expected one origin, direction and line index per ray, got {len(o)}, "
+                                f"{len(d)} and {len(line)}")
+    if len(line) and (line.min() < 0 or line.max() >= G):
+        bad = line[(line < 0) | (line >= G)][0]
+        raise CatadioptricError(f"line: expected indices into the {G} directions s, got {int(bad)}")
+    e1 = cross(s, np.where(np.abs(s[:, :1]) < 0.8, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]))
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
     e2 = cross(s, e1)
     # reciprocal product of the line (s, x e1' + y e2') with the ray (d, o x d), e' spanning m
     m1, m2 = cross(e1, s), cross(e2, s)  # moments of unit offsets along e1, e2
-    A0 = np.stack([d @ m1, d @ m2], axis=1)
-    rhs0 = -(cross(o, d) @ s)
-    sine = np.maximum(np.linalg.norm(cross(d, s), axis=1), 1e-9)
+    sl = s[line]
+    A0 = np.stack([np.sum(d * m1[line], 1), np.sum(d * m2[line], 1)], axis=1)
+    rhs0 = -np.sum(cross(o, d) * sl, 1)
+    sine = np.maximum(np.linalg.norm(cross(d, sl), axis=1), 1e-9)
     A0, rhs0 = A0 / sine[:, None], rhs0 / sine  # rows: the metric miss of each ray
+    du = d / np.linalg.norm(d, axis=1, keepdims=True)
+    b = np.sum(du * sl, 1)
+    den = 1.0 - b * b
     w = np.ones(len(d))
+    eye = np.eye(2)
     for it in range(iters + 1):
         A, rhs = A0 * w[:, None], rhs0 * w
-        N = A.T @ A
+        N = np.stack([np.bincount(line, A[:, i] * A[:, j], G) for i in (0, 1) for j in (0, 1)], 1).reshape(G, 2, 2)
+        g = np.stack([np.bincount(line, A[:, i] * rhs, G) for i in (0, 1)], 1)
         ev = np.linalg.eigvalsh(N)
-        well = bool(ev[0] > 1e-4 * ev[1])
-        if prior is not None and not well:  # a ridge towards the prior, felt only along the free direction
-            p = np.array([prior @ e1, prior @ e2])
-            lam = 1e-3 * ev[1]
-            xy = np.linalg.solve(N + lam * np.eye(2), A.T @ rhs + lam * p)
-        else:
-            xy = np.linalg.lstsq(A, rhs, rcond=None)[0]
-        q = xy[0] * e1 + xy[1] * e2
-        if it == iters:
+        well = ev[:, 0] > 1e-4 * ev[:, 1]
+        xy = (np.linalg.pinv(N) @ g[:, :, None])[:, :, 0]
+        if prior is not None and not well.all():  # a ridge towards the prior, felt only along the free direction
+            pr = np.asarray(prior, float).reshape(-1, 3)
+            p = np.stack([np.sum(pr * e1, 1), np.sum(pr * e2, 1)], axis=1)
+            lam = 1e-3 * ev[:, 1]
+            ridge = np.linalg.solve(N + lam[:, None, None] * eye, (g + lam[:, None] * p)[:, :, None])[:, :, 0]
+            xy = np.where(well[:, None], xy, ridge)
+        q = xy[:, :1] * e1 + xy[:, 1:] * e2
+        if it == iters or not len(line):
             break
-        depth = np.abs(ray_depths(q, s, o, d))
-        w = 1.0 / np.maximum(depth, 1e-3 * max(float(np.median(depth)), 1e-12))
+        wq = o - q[line]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            depth = np.abs(np.where(den > 1e-12, (b * np.sum(wq * sl, 1) - np.sum(du * wq, 1)) / den, 0.0))
+        med = np.asarray(ndimage.median(depth, labels=line, index=np.arange(G)), float).reshape(G)
+        w = 1.0 / np.maximum(depth, 1e-3 * np.maximum(med, 1e-12)[line])
     return q, well
