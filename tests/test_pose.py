@@ -182,3 +182,39 @@ def test_triangulated_line_fits_the_rays_in_angle():
             assert well and np.median(ray_depths(q, s, oa, da)) > 0 and np.median(ray_depths(q, s, ob, db)) > 0
             off[it].append(abs(q[0] - q_true[0]) / np.linalg.norm(q_true))  # the angle at A, radians
     assert np.median(off[1]) < 0.6e-3 and np.median(off[0]) > 4 * np.median(off[1])
+
+
+def test_lines_triangulated_at_once_are_each_line_s_least_squares():
+    """``triangulate_lines`` of several lines with their rays interleaved: without reweighting, each
+    line's point minimises the sum of its rays' squared distances to it (checked against a
+    general least-squares solver over the two coordinates across the line); with it, each line's
+    answer is that of ``triangulate_line`` on its own rays alone."""
+    from scipy.optimize import least_squares
+
+    from catadioptric.pose.translation import triangulate_line, triangulate_lines
+
+    rng = np.random.default_rng(3)
+    G, n = 4, 25
+    s = rng.normal(size=(G, 3))
+    s /= np.linalg.norm(s, axis=1, keepdims=True)
+    line = rng.permutation(np.repeat(np.arange(G), n))
+    o = rng.normal(size=(len(line), 3)) * 0.5
+    pts = rng.normal(size=(G, 3))[line] * 3 + rng.normal(size=(len(line), 1)) * s[line]
+    d = pts - o + 0.02 * rng.normal(size=o.shape)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    q0, well = triangulate_lines(s, o, d, line, iters=0)
+    assert well.all() and np.allclose(np.sum(q0 * s, axis=1), 0.0, atol=1e-12)
+    for g in range(G):
+        m = line == g
+        e1 = np.cross(s[g], [1.0, 0.0, 0.0])
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(s[g], e1)
+        n_ = np.cross(d[m], s[g])
+
+        def miss(xy):
+            return np.sum((xy[0] * e1 + xy[1] * e2 - o[m]) * n_, axis=1) / np.linalg.norm(n_, axis=1)
+
+        xy = least_squares(miss, np.zeros(2), xtol=1e-15, ftol=1e-15, gtol=1e-15).x
+        assert np.linalg.norm(q0[g] - (xy[0] * e1 + xy[1] * e2)) < 1e-9 * np.linalg.norm(q0[g])
+        q1, w1 = triangulate_line(s[g], o[m], d[m])
+        assert w1 and np.allclose(triangulate_lines(s, o, d, line)[0][g], q1, rtol=0, atol=1e-12)
