@@ -208,6 +208,19 @@ class CatadioptricCamera:
                 return foci[1 - i].copy()
         return None
 
+    def same_geometry(self, other) -> bool:
+        """True when ``other`` is a :class:`CatadioptricCamera` with the same mirror, pinhole
+        (intrinsics and image size), centre and orientation, to the bit: the two project every
+        point alike (e.g. two views of one rig)."""
+        if other is self:
+            return True
+        if type(other) is not type(self):
+            return False
+        p, q = self.pinhole, other.pinhole
+        return (self.mirror == other.mirror and type(p) is type(q) and np.array_equal(p.K, q.K)
+                and (p.width, p.height) == (q.width, q.height) and np.array_equal(self.center, other.center)
+                and np.array_equal(self.R_cam_from_mirror, other.R_cam_from_mirror))
+
     @property
     def is_axial(self) -> bool:
         """True when the camera centre lies on the mirror's axis (every reflected ray meets the axis)."""

@@ -294,3 +294,38 @@ def test_the_predicted_decrease_is_the_costs_to_first_order():
             errors.append(abs((cost0 - float(np.sum(e2**2))) / pred - 1.0))
         assert errors[1] < 1e-2, errors
         assert errors[1] < 0.3 * errors[0] or errors[1] < 1e-6, errors
+
+
+def test_one_rig_s_two_views_are_projected_together_to_the_same_bits():
+    """Two views of one rig (equal cameras, not the same object) are projected in one batch: the
+    residuals, reflection points and Jacobians are those of each view projected on its own, to the
+    bit; a camera moved by a millimetre is another camera."""
+    from dataclasses import replace
+
+    from catadioptric.pose.rotation import exp_rotation
+    from catadioptric.pose.two_view_problem import Problem
+    from catadioptric.rigs import preset
+
+    cam = preset("sphere")
+    twin = replace(cam, center=cam.center.copy())
+    assert twin is not cam and cam.same_geometry(twin) and twin.same_geometry(cam)
+    assert not cam.same_geometry(replace(cam, center=cam.center + [1e-3, 0.0, 0.0]))
+    assert not cam.same_geometry(preset("hyperboloid")) and not cam.same_geometry(None)
+    q, s = np.array([0.5, 4.0, 1.0]), np.array([1.0, 0.2, 0.1])
+    R, t = exp_rotation(np.array([0.02, -0.1, 0.05])), np.array([1.5, 0.3, 0.0])
+    view = np.repeat([0, 1], 20)
+    uv = np.random.default_rng(0).uniform(150.0, 450.0, (40, 2))
+    c = np.zeros(3)
+    pb = Problem(cam, twin, s[None], q[None], [0], uv, np.zeros(40, int), view, (c, c), R, t)
+    assert len(pb.by_camera) == 1
+    apart = Problem(cam, twin, s[None], q[None], [0], uv, np.zeros(40, int), view, (c, c), R, t)
+    apart.by_camera = [(view == 0, cam), (view == 1, twin)]
+    y, mu = pb.start(), np.linspace(-2.0, 2.0, 40)
+    for _ in range(2):  # a cold projection, then one continued from the last state's reflection points
+        (e1, st1), (e2, st2) = pb.residuals(R, y, mu), apart.residuals(R, y, mu)
+        assert np.isfinite(e1).any()
+        np.testing.assert_array_equal(e1, e2)
+        np.testing.assert_array_equal(st1[1], st2[1])
+        for a, b in zip(pb.jacobian(R, y, mu, st1), apart.jacobian(R, y, mu, st2)):
+            np.testing.assert_array_equal(a, b)
+        mu = mu * 1.01

@@ -47,6 +47,11 @@ class Problem:
     def __init__(self, cam_a, cam_b, dirs0, points0, line_family, uv, owner, view, centres, R0, t0, warm_start=True,
                  corners=None, corner_sigma=None):
         self.cams = (cam_a, cam_b)
+        # the pixels projected together, by camera: both views at once when they are one rig's (the
+        # same bits: each point's image is found on its own), halving the projections' fixed cost
+        same = cam_a is cam_b or (hasattr(cam_a, "same_geometry") and cam_a.same_geometry(cam_b))
+        self.by_camera = [(np.ones(len(view), dtype=bool), cam_a)] if same else \
+            [(np.asarray(view) == v, c) for v, c in ((0, cam_a), (1, cam_b))]
         self.corners = np.zeros((0, 2), dtype=int) if corners is None else np.asarray(corners, dtype=int).reshape(-1, 2)
         self.corner_sigma = (np.ones(len(self.corners)) if corner_sigma is None
                              else np.broadcast_to(np.asarray(corner_sigma, float), (len(self.corners),)).copy())
@@ -153,12 +158,11 @@ class Problem:
         X[inb] = k * (V[inb] @ R.T + that) + self.cb
         e = np.full((self.N, 2), np.nan)
         r = np.full((self.N, 3), np.nan)
-        for v in (0, 1):
-            m = self.view == v
+        for m, cam in self.by_camera:
             if m.any():
                 start = self.r_last[m] if self.warm_start and self.r_last is not None else None
-                uvp, _, _, r[m] = project_with_jacobian(self.cams[v], X[m], self.uv[m], jacobian=False,
-                                                        mirror_points=True, start=start)
+                uvp, _, _, r[m] = project_with_jacobian(cam, X[m], self.uv[m], jacobian=False, mirror_points=True,
+                                                        start=start)
                 e[m] = uvp - self.uv[m]
         return e, (X, r, V)
 
@@ -189,10 +193,9 @@ class Problem:
     def _image_jacobians(self, r, X):
         """``d uv / d X (N, 2, 3)`` of each pixel's point in its own view's frame (NaN where no image)."""
         G = np.full((self.N, 2, 3), np.nan)
-        for v in (0, 1):
-            m = self.view == v
+        for m, cam in self.by_camera:
             if m.any():
-                G[m] = image_jacobian(self.cams[v], r[m], X[m])
+                G[m] = image_jacobian(cam, r[m], X[m])
         return G
 
     def depth_column(self, R, y, state):
