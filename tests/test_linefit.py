@@ -373,6 +373,65 @@ def test_central_camera_gives_only_the_interpretation_plane():
         fit_interpretation_plane(_cam("sphere"), uv)
 
 
+def test_planes_fitted_together_are_each_line_s_own():
+    """``fit_interpretation_planes`` of a family's lines (a third of the pixels of every other line
+    moved 10 px across it, one line too short), checked line by line against the model written out
+    here: each normal is the fixed point of the reweighted eigenvector iterations on its own
+    inliers (the smallest eigenvector of ``sum w_j d_j d_j^T``, ``w_j = 1 / |Jd_j^T n|^2``), the
+    moved pixels are not inliers and the others are, the distances are ``|n . d_j| / |Jd_j^T
+    n|``, the covariance ``E (A^T A)^-1 E^T sigma^2`` over the inliers; a line fitted alone
+    (``fit_interpretation_plane``) is the same, with an int seed and with one Generator drawn
+    from line after line; the short line is reported, not fitted."""
+    from catadioptric.linefit import fit_interpretation_planes
+    from catadioptric.linefit.planes import pixel_rays_with_jacobian
+
+    cam = preset("hyperboloid_central")
+    _, clean, _ = family_pixels(cam, *FAMILIES["hyperboloid_central"])
+    rng = np.random.default_rng(5)
+    sets = [u + rng.normal(0.0, 1.0, u.shape) for u in clean]
+    sets.insert(1, sets[0][:2])
+    clean.insert(1, clean[0][:2])
+    moved = [np.zeros(len(u), dtype=bool) for u in sets]
+    for i in range(0, len(sets), 2):  # 10 px across the curve (not where it jumps from one arc to another)
+        step = np.linalg.norm(np.diff(clean[i], axis=0), axis=1)
+        smooth = np.zeros(len(clean[i]), dtype=bool)
+        smooth[1:-1] = (step[:-1] < 20.0) & (step[1:] < 20.0)
+        moved[i][3:-3:3] = smooth[3:-3:3]
+        tangent = np.gradient(clean[i], axis=0)
+        across = np.stack([-tangent[:, 1], tangent[:, 0]], axis=1) / np.linalg.norm(tangent, axis=1, keepdims=True)
+        sets[i][moved[i]] += 10.0 * across[moved[i]]
+    for seed in (4, "generator"):
+        make = (lambda: np.random.default_rng(9)) if seed == "generator" else (lambda: seed)
+        fits, failures = fit_interpretation_planes(cam, sets, seed=make())
+        assert set(fits) == set(range(len(sets))) - {1} and list(failures) == [1]
+        assert failures[1] == "uv: expected at least 3 pixels, got 2"
+        one_seed = make()
+        for i, u in enumerate(sets):
+            if i == 1:
+                continue
+            f = fits[i]
+            rays = pixel_rays_with_jacobian(cam, u)
+            assert rays.ok.all()
+            np.testing.assert_array_equal(f.inliers, ~moved[i])
+            d, Jd, inl = rays.d, rays.Jd, f.inliers
+            jn = np.linalg.norm(np.einsum("mkj,k->mj", Jd, f.normal), axis=1)
+            w = 1.0 / jn**2
+            n_fix = np.linalg.eigh((d[inl] * w[inl, None]).T @ d[inl])[1][:, 0]
+            assert _angle(n_fix, f.normal) < 1e-10
+            dist = np.abs(d @ f.normal) / jn
+            np.testing.assert_allclose(f.distances, dist, rtol=1e-10, atol=1e-12)
+            assert f.rms == pytest.approx(np.sqrt(np.mean(dist[inl] ** 2)), rel=1e-10)
+            sigma = np.sqrt(np.sum(dist[inl] ** 2) / (inl.sum() - 2))
+            e1 = np.cross(f.normal, [1.0, 0.0, 0.0] if abs(f.normal[0]) < 0.8 else [0.0, 1.0, 0.0])
+            e1 /= np.linalg.norm(e1)
+            E = np.stack([e1, np.cross(f.normal, e1)], axis=1)
+            A = (d[inl] @ E) / jn[inl, None]
+            np.testing.assert_allclose(f.normal_cov, E @ np.linalg.inv(A.T @ A) @ E.T * sigma**2, rtol=1e-8,
+                                       atol=1e-8 * np.abs(f.normal_cov).max())
+            alone = fit_interpretation_plane(cam, u, seed=one_seed)
+            assert np.array_equal(alone.inliers, f.inliers) and _angle(alone.normal, f.normal) < 1e-12
+
+
 @pytest.mark.parametrize("name", ["hyperboloid_central", "ellipsoid_central"])
 def test_central_vanishing_points_from_curves(name):
     cam = preset(name)

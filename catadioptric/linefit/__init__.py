@@ -33,7 +33,7 @@ parallel lines still give their direction and vanishing points). See docs/linefi
 from __future__ import annotations
 
 from .accuracy import REFERENCE_FAMILIES, REFERENCE_SEGMENTS, accuracy_table
-from .central import direction_from_planes, fit_interpretation_plane
+from .central import direction_from_planes, fit_interpretation_plane, fit_interpretation_planes
 from .distances import image_distances
 from .fits import fit_line, fit_parallel_lines
 from .jacobian import project_with_jacobian
@@ -45,6 +45,7 @@ from .vanishing import vanishing_points_from_curves
 __all__ = [
     "LineFit", "FamilyFit", "CurveVanishingPoints", "InterpretationPlane",
     "fit_line", "fit_parallel_lines", "vanishing_points_from_curves", "fit_interpretation_plane",
+    "fit_interpretation_planes",
     "direction_from_planes",
     "line_candidates", "image_distances", "project_with_jacobian", "segment_pixels", "family_pixels",
     "accuracy_table", "REFERENCE_SEGMENTS", "REFERENCE_FAMILIES",

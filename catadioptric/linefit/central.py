@@ -7,7 +7,8 @@ import numpy as np
 from .._checks import CatadioptricError, as_float_array
 from ..cameras import CatadioptricCamera
 from ._common import check_options, check_uv, as_rng, scatter, tangent_basis
-from .planes import pixel_rays_with_jacobian, plane_covariance, plane_distances, refine_plane
+from .._numeric import cross
+from .planes import pixel_rays_with_jacobian
 from .results import InterpretationPlane
 
 
@@ -61,8 +62,26 @@ def fit_interpretation_plane(cam, uv, *, f_scale: float = 1.0, ransac: bool = Tr
     linearisation (sigma from the residuals unless ``pixel_sigma`` is given). Two or
     more parallel lines give their direction as the common normal of their planes.
     ``rays``: the pixels' rays if already computed (:func:`~catadioptric.linefit.planes.pixel_rays_with_jacobian`
-    of ``cam`` and ``uv``; e.g. a slice of those of many lines' pixels, computed at once).
+    of ``cam`` and ``uv``). Many lines at once: :func:`fit_interpretation_planes`.
     """
+    planes, failures = fit_interpretation_planes(cam, [uv], f_scale=f_scale, ransac=ransac, seed=seed,
+                                                 pixel_sigma=pixel_sigma, inlier_threshold=inlier_threshold,
+                                                 max_trials=max_trials, directions_only=directions_only, rays=rays)
+    if failures:
+        raise CatadioptricError(failures[0])
+    return planes[0]
+
+
+def fit_interpretation_planes(cam, uv_sets, *, f_scale: float = 1.0, ransac: bool = True, seed=0,
+                              pixel_sigma=None, inlier_threshold=None, max_trials: int = 200,
+                              directions_only: bool = False, rays=None) -> tuple[dict, dict]:
+    """:func:`fit_interpretation_plane` of many lines at once, one pixel set ``uv_sets[i] (M_i, 2)``
+    per line: ``(planes, failures)``, ``{i: InterpretationPlane}`` and ``{i: reason}`` (a line
+    with fewer than 3 pixels that see the world). Each line's answer is the one
+    :func:`fit_interpretation_plane` gives it alone, its RANSAC samples drawn as it draws them (an
+    int ``seed``: every line from that seed; a Generator: one line after another); the arithmetic
+    runs over every line's pixels together. ``rays``: the rays of all the pixels, the sets one
+    after another, if already computed."""
     from ..models.base import CentralCamera
     from ..unified import UnifiedCamera
 
@@ -72,58 +91,177 @@ def fit_interpretation_plane(cam, uv, *, f_scale: float = 1.0, ransac: bool = Tr
     if isinstance(cam, CatadioptricCamera) and not cam.is_central and not directions_only:
         raise CatadioptricError("cam: expected a central camera (cam.is_central); a non-central camera sees the "
                                 "whole line: use fit_line (or directions_only=True for the approximate plane)")
-    uv = check_uv(uv, "uv", 3)
     f_scale, pixel_sigma, inlier_threshold = check_options("linear", f_scale, pixel_sigma, inlier_threshold)
-    rng = as_rng(seed)
+    as_rng(seed)  # a seed of the wrong kind is named even when no line draws samples
+    sets, failures = [], {}
+    for i, uv in enumerate(uv_sets):
+        try:
+            sets.append(check_uv(uv, "uv", 3))
+        except CatadioptricError as exc:
+            if len(uv_sets) == 1:
+                raise
+            failures[i] = str(exc)
+            sets.append(np.zeros((0, 2)))
+    sizes = np.array([len(u) for u in sets])
+    all_uv = np.concatenate(sets) if len(sets) else np.zeros((0, 2))
     # a pixel at the edge of the mirror's image has no ray derivative (a neighbour misses the mirror)
     if rays is None:
-        rays = pixel_rays_with_jacobian(cam, uv)
-    elif len(rays.uv) != len(uv):
-        raise CatadioptricError(f"rays: expected the rays of the {len(uv)} pixels uv, got {len(rays.uv)}")
-    valid = rays.ok
-    if int(valid.sum()) < 3:
-        raise CatadioptricError(f"uv: expected at least 3 pixels that see the world, got {int(valid.sum())}")
-    rays = rays.take(valid)
+        rays = pixel_rays_with_jacobian(cam, all_uv)
+    elif len(rays.uv) != len(all_uv):
+        raise CatadioptricError(f"rays: expected the rays of the {len(all_uv)} pixels uv, got {len(rays.uv)}")
+    line_of = np.repeat(np.arange(len(sets)), sizes)
+    n_ok = np.bincount(line_of[rays.ok], minlength=len(sets))
+    for i in np.flatnonzero(n_ok < 3):
+        failures.setdefault(int(i), f"uv: expected at least 3 pixels that see the world, got {int(n_ok[i])}")
+    good = np.array([i for i in range(len(sets)) if i not in failures], dtype=int)
+    if not len(good):
+        return {}, failures
+    keep = rays.ok & np.isin(line_of, good)
+    R = rays.take(keep)
+    line = np.searchsorted(good, line_of[keep])  # each kept ray's index among the good lines
+    G = len(good)
     thr = inlier_threshold if inlier_threshold is not None else (
         3.5 * pixel_sigma if pixel_sigma is not None else 3.0 * f_scale)
-    M = len(rays.d)
-    inl = np.ones(M, dtype=bool)
-    if ransac and M > 3:
-        best, best_cost = None, np.inf
-        for _ in range(int(np.ceil(max_trials / 64))):
-            idx = np.argsort(rng.random((64, M)), axis=1)[:, :2]
-            n = np.cross(rays.d[idx[:, 0]], rays.d[idx[:, 1]])
-            nn = np.linalg.norm(n, axis=-1)
-            n = n[nn > 1e-12] / nn[nn > 1e-12, None]
-            if len(n) == 0:
-                continue
-            cost = np.sum(np.minimum(plane_distances(n, rays) ** 2, thr**2), axis=1)
-            j = int(np.argmin(cost))
-            if cost[j] < best_cost:
-                best, best_cost = n[j], cost[j]
-        if best is not None:
-            inl = plane_distances(best, rays) <= thr
-            if inl.sum() < 3:
-                inl = np.ones(M, dtype=bool)
-    n = refine_plane(rays.take(inl), iters=50, tol=1e-14)
+    counts = np.bincount(line, minlength=G)
+    inl = np.ones(len(line), dtype=bool)
+    if ransac:
+        best = _ransac_planes(R, line, counts, seed, thr, max_trials)
+        has = np.all(np.isfinite(best), axis=1)
+        if has.any():
+            new = _distances(best, R, line) <= thr
+            enough = np.bincount(line, new.astype(float), G) >= 3
+            use = has & enough
+            inl = np.where(use[line], new, True)
+    n = _refine_planes(R, line, inl, G)
     if ransac:  # inliers of the refined plane (threshold from a robust sigma unless given)
-        r = plane_distances(n, rays)
-        thr2 = thr
+        r = _distances(n, R, line)
+        thr2 = np.full(G, float(thr))
         if inlier_threshold is None and pixel_sigma is None:
-            thr2 = 3.0 * max(f_scale, 1.2 * float(np.median(r[inl])) / 0.6745)
-        new = r <= thr2
-        if new.sum() >= 3 and not np.array_equal(new, inl):
-            inl = new
-            n = refine_plane(rays.take(inl), iters=50, tol=1e-14)
-    r = plane_distances(n, rays)
-    k = int(inl.sum())
-    dof = k - 2
-    rss = float(np.sum(r[inl] ** 2))
-    sigma = pixel_sigma if pixel_sigma is not None else (float(np.sqrt(rss / dof)) if dof > 0 else float("nan"))
-    cov = plane_covariance(n, rays.take(inl), sigma)
-    full = scatter(valid, r, np.inf, len(uv))
-    return InterpretationPlane(normal=n, viewpoint=cam.viewpoint, normal_cov=cov,
-                               rms=float(np.sqrt(np.mean(r[inl] ** 2))), distances=full,
-                               inliers=scatter(valid, inl, False, len(uv)))
+            med = _line_medians(r, line, inl, G)
+            thr2 = 3.0 * np.maximum(f_scale, 1.2 * med / 0.6745)
+        new = r <= thr2[line]
+        enough = np.bincount(line, new.astype(float), G) >= 3
+        changed = np.bincount(line, (new != inl).astype(float), G) > 0
+        again = enough & changed
+        if again.any():
+            inl = np.where(again[line], new, inl)
+            n = np.where(again[:, None], _refine_planes(R, line, inl, G, lines=again), n)
+    r = _distances(n, R, line)
+    k = np.bincount(line, inl.astype(float), G)
+    rss = np.bincount(line, np.where(inl, r**2, 0.0), G)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sigma = np.full(G, float(pixel_sigma)) if pixel_sigma is not None else np.where(
+            k - 2 > 0, np.sqrt(rss / (k - 2)), np.nan)
+    cov = _plane_covariances(n, R, line, inl, sigma)
+    rms = np.sqrt(rss / k)
+    starts = np.concatenate([[0], np.cumsum(sizes)])
+    viewpoint = cam.viewpoint
+    planes = {}
+    for g, i in enumerate(good):
+        ok_i = rays.ok[starts[i]:starts[i + 1]]
+        m = line == g
+        planes[int(i)] = InterpretationPlane(normal=n[g], viewpoint=viewpoint, normal_cov=cov[g], rms=float(rms[g]),
+                                             distances=scatter(ok_i, r[m], np.inf, int(sizes[i])),
+                                             inliers=scatter(ok_i, inl[m], False, int(sizes[i])))
+    return planes, failures
 
 
+def _distances(n, rays, line):
+    """Each ray's first-order image distance (pixels) to its line's plane, normals ``n (G, 3)``."""
+    nl = n[line]
+    num = np.abs(np.sum(nl * rays.d, axis=1))
+    den = np.linalg.norm(np.einsum("mk,mkj->mj", nl, rays.Jd), axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(den > 0, num / den, np.inf)
+
+
+def _line_medians(r, line, mask, G):
+    """The median of ``r`` over each line's rays in ``mask`` ``(G,)``."""
+    from scipy import ndimage
+
+    lab = np.where(mask, line + 1, 0)
+    return np.asarray(ndimage.median(r, labels=lab, index=np.arange(1, G + 1)), float).reshape(G)
+
+
+def _ransac_planes(rays, line, counts, seed, thr, max_trials):
+    """RANSAC's best plane ``(G, 3)`` per line (NaN where it has none: 3 rays, or no pair spans a
+    plane): hypotheses from pairs of rays, ``max_trials`` rounded up to batches of 64, the samples
+    of each line drawn as :func:`fit_interpretation_plane` draws them; the best by the truncated
+    cost ``sum min(r^2, thr^2)``, the first of equals."""
+    G = len(counts)
+    starts = np.concatenate([[0], np.cumsum(counts)])
+    order = np.argsort(line, kind="stable")
+    d = rays.d[order]
+    rng_shared = seed if isinstance(seed, np.random.Generator) else None
+    rounds = int(np.ceil(max_trials / 64))
+    pairs = np.zeros((G, 64 * rounds, 2), dtype=int)
+    sampled = counts > 3
+    for g in np.flatnonzero(sampled):
+        rng = rng_shared if rng_shared is not None else as_rng(seed)
+        M = int(counts[g])
+        idx = np.concatenate([np.argsort(rng.random((64, M)), axis=1)[:, :2] for _ in range(rounds)])
+        pairs[g] = starts[g] + idx
+    hyp = cross(d[pairs[..., 0]], d[pairs[..., 1]])  # (G, T, 3)
+    nn = np.linalg.norm(hyp, axis=-1)
+    usable = (nn > 1e-12) & sampled[:, None]
+    hyp = hyp / np.where(usable, nn, 1.0)[..., None]
+    # every hypothesis of a line against that line's rays, (rays, T), a few thousand rays at a time
+    Jd = rays.Jd[order]
+    ls = line[order]
+    cost = np.zeros(hyp.shape[:2])
+    g0 = 0
+    while g0 < G:
+        g1 = max(g0 + 1, int(np.searchsorted(starts, starts[g0] + 4096, side="right")) - 1)
+        a, b = starts[g0], starts[g1]
+        hl = hyp[ls[a:b]]
+        num = np.abs(np.einsum("mti,mi->mt", hl, d[a:b]))
+        den = np.linalg.norm(np.einsum("mti,mij->mtj", hl, Jd[a:b]), axis=-1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dist = np.where(den > 0, num / den, np.inf)
+        cost[g0:g1] = np.add.reduceat(np.minimum(dist**2, thr**2), starts[g0:g1] - a, axis=0)
+        g0 = g1
+    cost = np.where(usable, cost, np.inf)
+    j = np.argmin(cost, axis=1)
+    best = hyp[np.arange(G), j]
+    return np.where(np.isfinite(cost[np.arange(G), j])[:, None], best, np.nan)
+
+
+def _refine_planes(rays, line, mask, G, lines=None, iters: int = 50, tol: float = 1e-14):
+    """:func:`~catadioptric.linefit.planes.refine_plane` of each line on its rays in ``mask``,
+    together (``lines (G,)``: those to refine; the others' rows are left NaN)."""
+    active = np.ones(G, dtype=bool) if lines is None else lines.copy()
+    d, Jd = rays.d, rays.Jd
+    w = mask.astype(float)
+    n = np.full((G, 3), np.nan)
+    first = True
+    for _ in range(iters):
+        if not active.any():
+            break
+        dw = d * w[:, None]
+        S = np.stack([np.bincount(line, dw[:, a] * d[:, b], G) for a in range(3) for b in range(3)], 1).reshape(G, 3, 3)
+        n_new = np.linalg.eigh(S[active])[1][:, :, 0]
+        if not first:
+            n_new = np.where((np.sum(n_new * n[active], axis=1) < 0)[:, None], -n_new, n_new)
+            done = np.linalg.norm(n_new - n[active], axis=1) < tol
+        else:
+            done = np.zeros(len(n_new), dtype=bool)
+        n[active] = n_new
+        m = mask & active[line]
+        w[m] = 1.0 / np.maximum(np.linalg.norm(np.einsum("mk,mkj->mj", n[line[m]], Jd[m]), axis=-1), 1e-300) ** 2
+        idx = np.flatnonzero(active)
+        active[idx[done]] = False
+        first = False
+    return n
+
+
+def _plane_covariances(n, rays, line, mask, sigma):
+    """:func:`~catadioptric.linefit.planes.plane_covariance` of each line's normal ``n (G, 3)`` from
+    its rays in ``mask``, with pixel noise ``sigma (G,)``."""
+    G = len(n)
+    e1, e2 = tangent_basis(n)
+    E = np.stack([e1, e2], axis=2)  # (G, 3, 2)
+    nl = n[line]
+    w = 1.0 / np.maximum(np.linalg.norm(np.einsum("mk,mkj->mj", nl, rays.Jd), axis=-1), 1e-300)
+    A = np.einsum("mi,mij->mj", rays.d, E[line]) * (w * mask)[:, None]
+    AtA = np.stack([np.bincount(line, A[:, a] * A[:, b], G) for a in range(2) for b in range(2)], 1).reshape(G, 2, 2)
+    return E @ np.linalg.pinv(AtA) @ E.transpose(0, 2, 1) * (sigma**2)[:, None, None]

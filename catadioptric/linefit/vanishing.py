@@ -7,7 +7,7 @@ import numpy as np
 from .._checks import CatadioptricError
 from ..cameras import CatadioptricCamera
 from ._common import tangent_basis, unit_vectors
-from .central import direction_from_planes, fit_interpretation_plane
+from .central import direction_from_planes, fit_interpretation_planes
 from .fits import check_sets, fit_line, fit_parallel_lines
 from .results import CurveVanishingPoints
 
@@ -112,7 +112,10 @@ def _central_vanishing_points(cam, uv_sets, **options):
     if len(sets) < 2:
         raise CatadioptricError(f"uv_sets: a central camera needs at least 2 curves (one gives only a plane), "
                                 f"got {len(sets)}")
-    planes = [fit_interpretation_plane(cam, u, **opts) for u in sets]
+    fits, failures = fit_interpretation_planes(cam, sets, **opts)
+    if failures:
+        raise CatadioptricError(failures[min(failures)])
+    planes = [fits[i] for i in range(len(sets))]
     s, cov = direction_from_planes([p.normal for p in planes], [p.normal_cov for p in planes])
     rays = cam.backproject(sets[0][planes[0].inliers])
     d = rays.directions[rays.valid]

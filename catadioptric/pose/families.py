@@ -112,21 +112,13 @@ def _model_cov(n, model_error_rad):
 
 
 def _fit_central(cam, uv_sets, seed, f_scale, pixel_sigma, directions_only=False, model_error_rad=0.0):
-    from ..linefit import direction_from_planes, fit_interpretation_plane
-    from ..linefit.planes import pixel_rays_with_jacobian
+    from ..linefit import direction_from_planes, fit_interpretation_planes
 
-    # every line's rays at once (one back-projection of the family's pixels, not one per line)
-    rays = pixel_rays_with_jacobian(cam, np.concatenate([np.asarray(u, float).reshape(-1, 2) for u in uv_sets]))
-    start = np.cumsum([0] + [len(u) for u in uv_sets])
-    planes, keep, dropped = [], [], {}
-    for i, u in enumerate(uv_sets):
-        try:
-            planes.append(fit_interpretation_plane(cam, u, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
-                                                   directions_only=directions_only,
-                                                   rays=rays.take(slice(start[i], start[i + 1]))))
-            keep.append(i)
-        except CatadioptricError as exc:
-            dropped[i] = str(exc)
+    # every line's plane at once (one back-projection of the family's pixels, one batch of fits)
+    fits, dropped = fit_interpretation_planes(cam, uv_sets, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
+                                              directions_only=directions_only)
+    keep = sorted(fits)
+    planes = [fits[i] for i in keep]
     if len(planes) < 2:
         raise CatadioptricError(f"a central camera needs at least 2 lines of a family (one gives only a plane), "
                                 f"got {len(planes)} that fit")
