@@ -8,7 +8,7 @@ from .._checks import CatadioptricError, as_float_array
 from ..cameras import CatadioptricCamera
 from ._common import check_options, check_uv, as_rng, scatter, tangent_basis
 from .._numeric import cross
-from .planes import pixel_rays_with_jacobian
+from .planes import Rays, pixel_rays_with_jacobian, plane_distances
 from .results import InterpretationPlane
 
 
@@ -205,21 +205,12 @@ def _ransac_planes(rays, line, counts, seed, thr, max_trials):
     nn = np.linalg.norm(hyp, axis=-1)
     usable = (nn > 1e-12) & sampled[:, None]
     hyp = hyp / np.where(usable, nn, 1.0)[..., None]
-    # every hypothesis of a line against that line's rays, (rays, T), a few thousand rays at a time
-    Jd = rays.Jd[order]
-    ls = line[order]
+    # every hypothesis of a line against that line's rays (one product per line)
+    sorted_rays = Rays(rays.uv[order], d, rays.Jd[order], rays.ok[order])
     cost = np.zeros(hyp.shape[:2])
-    g0 = 0
-    while g0 < G:
-        g1 = max(g0 + 1, int(np.searchsorted(starts, starts[g0] + 4096, side="right")) - 1)
-        a, b = starts[g0], starts[g1]
-        hl = hyp[ls[a:b]]
-        num = np.abs(np.einsum("mti,mi->mt", hl, d[a:b]))
-        den = np.linalg.norm(np.einsum("mti,mij->mtj", hl, Jd[a:b]), axis=-1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            dist = np.where(den > 0, num / den, np.inf)
-        cost[g0:g1] = np.add.reduceat(np.minimum(dist**2, thr**2), starts[g0:g1] - a, axis=0)
-        g0 = g1
+    for g in np.flatnonzero(sampled):
+        dist = plane_distances(hyp[g], sorted_rays.take(slice(starts[g], starts[g + 1])))
+        cost[g] = np.sum(np.minimum(dist**2, thr**2), axis=1)
     cost = np.where(usable, cost, np.inf)
     j = np.argmin(cost, axis=1)
     best = hyp[np.arange(G), j]
