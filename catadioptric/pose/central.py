@@ -96,11 +96,14 @@ def sides(view, est):
     s = est.direction
     u = np.cross(est.normals, s)
     u /= np.maximum(np.linalg.norm(u, axis=1, keepdims=True), 1e-300)
-    for k, line in enumerate(est.lines):
-        r = view.cam.backproject(view.uv[line][est.inliers[k]])
-        d = r.directions[r.valid]
-        if len(d) and np.mean(d @ u[k]) < 0:
-            u[k] = -u[k]
+    # every line's inlier pixels back-projected at once
+    uv = [np.asarray(view.uv[line], float).reshape(-1, 2)[est.inliers[k]] for k, line in enumerate(est.lines)]
+    owner = np.repeat(np.arange(len(uv)), [len(x) for x in uv])
+    if len(owner):
+        r = view.cam.backproject(np.concatenate(uv))
+        k = owner[r.valid]
+        dot = np.bincount(k, np.sum(r.directions[r.valid] * u[k], axis=1), len(uv))
+        u[dot < 0] = -u[dot < 0]
     est.seen_sides = u
     return u
 
