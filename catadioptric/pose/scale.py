@@ -151,12 +151,11 @@ def refine_far_or_free(data: TwoViewData, start: TwoViewStart, options: ScaleOpt
     ``max_scale_std`` below; ``refine``: the refinements' options, except ``hold_scale`` and
     ``release_scale``, which must keep their defaults). Two fits (:func:`far_and_free_fits`):
 
+    * free: from ``start.t`` and ``start.points`` as given;
     * far: the start scaled about the centres (the baseline between them ``far`` times the larger
       mirror's size, every line with it; not shrunk when it is already longer) and the scale held
       there. The rig then sees every line nearly as from its central limit: the fit has the
-      unknowns of the central approximation, with the rig's exact rays;
-    * free: from the far fit brought back to the start's baseline length (``start.t``), the scale
-      free.
+      unknowns of the central approximation, with the rig's exact rays.
 
     The pixels tell the scale when the free fit explains them better than the far one by more than
     ``tau`` on common ground (:func:`common_gap`: every pixel given, one truncated quadratic loss,
@@ -204,36 +203,22 @@ def refine_far_or_free(data: TwoViewData, start: TwoViewStart, options: ScaleOpt
 
 def far_and_free_fits(data: TwoViewData, start: TwoViewStart, options: TwoViewOptions = TwoViewOptions(), *,
                       far: float = FAR) -> tuple[TwoViewFit, TwoViewFit | None]:
-    """The two refinements :func:`refine_far_or_free` chooses between, ``(free, far)``: far from the
-    start scaled about the centres (``data.centres``, required) until the baseline is ``far`` times
-    the larger mirror's size (not shrunk when already longer), every line with it, and the scale held
-    there; free from the far fit brought back to the start's baseline length (its rotation, family
-    directions and the scene's shape, scaled about A's centre), the scale free. ``options``: those of
-    both refinements (the far one's ``hold_scale`` and ``release_scale`` set here). The far fit is
-    None, and the free one starts from the start given, when the start has no baseline to scale (the
-    two views' centres meet); it is None also when the free fit ends without one.
-
-    The free fit used to start from the start given, as the far one: on 32 benchmark draws at 1 and 2
-    px it then took 2,070 trial steps against 1,597 from the far fit (along a near-central rig's flat
-    scale the rotation crawled by hundredths of a degree a step), and every rotation was the same (the
-    far fit was the answer in all 32); validate/NOTES.md, 2026-11-29."""
+    """The two refinements :func:`refine_far_or_free` chooses between, ``(free, far)``: free from
+    the start given; far from the start scaled about the centres (``data.centres``, required) until
+    the baseline is ``far`` times the larger mirror's size (not shrunk when already longer), every
+    line with it, and the scale held there. ``options``: those of both refinements (the far one's
+    ``hold_scale`` and ``release_scale`` set here). The far fit is None when the start or the free
+    fit has no baseline to scale (the two views' centres meet)."""
     R0 = np.asarray(start.R, float)
     ca, cb = (np.asarray(c, float) for c in data.centres)
     data = replace(data, centres=(ca, cb))
-    base0 = float(np.linalg.norm(R0 @ ca + np.asarray(start.t, float) - cb))
-    if base0 == 0.0:
-        return refine_two_view(data, replace(start, R=R0), options), None
+    free = refine_two_view(data, replace(start, R=R0), options)
+    if float(np.linalg.norm(R0 @ ca + np.asarray(start.t, float) - cb)) == 0.0 or \
+            float(np.linalg.norm(free.R @ ca + free.t - cb)) == 0.0:
+        return free, None
     t_far, points_far = far_start(data.cam_a, data.cam_b, R0, start.t, start.points, centres=(ca, cb), far=far)
     held = refine_two_view(data, TwoViewStart(R0, t_far, start.directions, points_far),
                            replace(options, hold_scale=True, release_scale=0.0))
-    # the free fit from the far one brought back to the start's length: its rotation, directions and
-    # the scene's shape already fit the pixels, and only the scale (with the lines' distances) is left
-    b, k, _ = _baseline(held, ca, cb)
-    r = base0 / k if k > 0 else 1.0
-    free = refine_two_view(data, TwoViewStart(held.R, r * b - held.R @ ca + cb, held.directions,
-                                              ca + r * (held.points - ca)), options)
-    if float(np.linalg.norm(free.R @ ca + free.t - cb)) == 0.0:
-        return free, None
     return free, held
 
 
