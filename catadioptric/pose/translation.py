@@ -118,14 +118,16 @@ def relative_translation_from_lines(R, lines_a, lines_b, rays_a, owner_a, rays_b
 def ray_depths(q, s, o, d) -> np.ndarray:
     """How far along each ray ``o + lambda d`` (``d`` made unit) its point nearest the line through
     ``q`` along unit ``s`` lies, ``(M,)``: negative where the ray meets the line behind its origin
-    (the line is behind that view); 0 for a ray parallel to the line."""
+    (the line is behind that view); 0 for a ray parallel to the line. ``q, s``: one line ``(3,)``,
+    or each ray's own ``(M, 3)``."""
     d = np.asarray(d, float)
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    s = np.asarray(s, float)
     w = np.asarray(o, float) - q
-    b = d @ s
+    b = np.sum(d * s, axis=1)
     den = 1.0 - b * b
     with np.errstate(invalid="ignore", divide="ignore"):
-        lam = (b * (w @ s) - np.sum(d * w, axis=1)) / den
+        lam = (b * np.sum(w * s, axis=1) - np.sum(d * w, axis=1)) / den
     return np.where(den > 1e-12, lam, 0.0)
 
 
@@ -179,9 +181,6 @@ def triangulate_lines(s, o, d, line, prior=None, iters: int = 1):
     rhs0 = -np.sum(cross(o, d) * sl, 1)
     sine = np.maximum(np.linalg.norm(cross(d, sl), axis=1), 1e-9)
     A0, rhs0 = A0 / sine[:, None], rhs0 / sine  # rows: the metric miss of each ray
-    du = d / np.linalg.norm(d, axis=1, keepdims=True)
-    b = np.sum(du * sl, 1)
-    den = 1.0 - b * b
     w = np.ones(len(d))
     eye = np.eye(2)
     for it in range(iters + 1):
@@ -200,9 +199,7 @@ def triangulate_lines(s, o, d, line, prior=None, iters: int = 1):
         q = xy[:, :1] * e1 + xy[:, 1:] * e2
         if it == iters or not len(line):
             break
-        wq = o - q[line]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            depth = np.abs(np.where(den > 1e-12, (b * np.sum(wq * sl, 1) - np.sum(du * wq, 1)) / den, 0.0))
+        depth = np.abs(ray_depths(q[line], sl, o, d))
         med = np.asarray(ndimage.median(depth, labels=line, index=np.arange(G)), float).reshape(G)
         w = 1.0 / np.maximum(depth, 1e-3 * np.maximum(med, 1e-12)[line])
     return q, well
