@@ -8,7 +8,7 @@ from .._checks import CatadioptricError, as_float_array
 from ..cameras import CatadioptricCamera
 from ._common import check_options, check_uv, as_rng, scatter, tangent_basis
 from .._numeric import cross
-from .planes import Rays, pixel_rays_with_jacobian, plane_distances
+from .planes import Rays, pixel_rays_with_jacobian, plane_covariances, plane_distances, refine_planes
 from .results import InterpretationPlane
 
 
@@ -132,7 +132,7 @@ def fit_interpretation_planes(cam, uv_sets, *, f_scale: float = 1.0, ransac: boo
             enough = np.bincount(line, new.astype(float), G) >= 3
             use = has & enough
             inl = np.where(use[line], new, True)
-    n = _refine_planes(R, line, inl, G)
+    n = refine_planes(R, line, inl, G)
     if ransac:  # inliers of the refined plane (threshold from a robust sigma unless given)
         r = _distances(n, R, line)
         thr2 = np.full(G, float(thr))
@@ -145,14 +145,14 @@ def fit_interpretation_planes(cam, uv_sets, *, f_scale: float = 1.0, ransac: boo
         again = enough & changed
         if again.any():
             inl = np.where(again[line], new, inl)
-            n = np.where(again[:, None], _refine_planes(R, line, inl, G, lines=again), n)
+            n = np.where(again[:, None], refine_planes(R, line, inl, G, lines=again), n)
     r = _distances(n, R, line)
     k = np.bincount(line, inl.astype(float), G)
     rss = np.bincount(line, np.where(inl, r**2, 0.0), G)
     with np.errstate(invalid="ignore", divide="ignore"):
         sigma = np.full(G, float(pixel_sigma)) if pixel_sigma is not None else np.where(
             k - 2 > 0, np.sqrt(rss / (k - 2)), np.nan)
-    cov = _plane_covariances(n, R, line, inl, sigma)
+    cov = plane_covariances(n, R, line, inl, sigma)
     rms = np.sqrt(rss / k)
     starts = np.concatenate([[0], np.cumsum(sizes)])
     viewpoint = cam.viewpoint
@@ -215,44 +215,3 @@ def _ransac_planes(rays, line, counts, seed, thr, max_trials):
     j = np.argmin(cost, axis=1)
     best = hyp[np.arange(G), j]
     return np.where(np.isfinite(cost[np.arange(G), j])[:, None], best, np.nan)
-
-
-def _refine_planes(rays, line, mask, G, lines=None, iters: int = 50, tol: float = 1e-14):
-    """:func:`~catadioptric.linefit.planes.refine_plane` of each line on its rays in ``mask``,
-    together (``lines (G,)``: those to refine; the others' rows are left NaN)."""
-    active = np.ones(G, dtype=bool) if lines is None else lines.copy()
-    d, Jd = rays.d, rays.Jd
-    w = mask.astype(float)
-    n = np.full((G, 3), np.nan)
-    first = True
-    for _ in range(iters):
-        if not active.any():
-            break
-        dw = d * w[:, None]
-        S = np.stack([np.bincount(line, dw[:, a] * d[:, b], G) for a in range(3) for b in range(3)], 1).reshape(G, 3, 3)
-        n_new = np.linalg.eigh(S[active])[1][:, :, 0]
-        if not first:
-            n_new = np.where((np.sum(n_new * n[active], axis=1) < 0)[:, None], -n_new, n_new)
-            done = np.linalg.norm(n_new - n[active], axis=1) < tol
-        else:
-            done = np.zeros(len(n_new), dtype=bool)
-        n[active] = n_new
-        m = mask & active[line]
-        w[m] = 1.0 / np.maximum(np.linalg.norm(np.einsum("mk,mkj->mj", n[line[m]], Jd[m]), axis=-1), 1e-300) ** 2
-        idx = np.flatnonzero(active)
-        active[idx[done]] = False
-        first = False
-    return n
-
-
-def _plane_covariances(n, rays, line, mask, sigma):
-    """:func:`~catadioptric.linefit.planes.plane_covariance` of each line's normal ``n (G, 3)`` from
-    its rays in ``mask``, with pixel noise ``sigma (G,)``."""
-    G = len(n)
-    e1, e2 = tangent_basis(n)
-    E = np.stack([e1, e2], axis=2)  # (G, 3, 2)
-    nl = n[line]
-    w = 1.0 / np.maximum(np.linalg.norm(np.einsum("mk,mkj->mj", nl, rays.Jd), axis=-1), 1e-300)
-    A = np.einsum("mi,mij->mj", rays.d, E[line]) * (w * mask)[:, None]
-    AtA = np.stack([np.bincount(line, A[:, a] * A[:, b], G) for a in range(2) for b in range(2)], 1).reshape(G, 2, 2)
-    return E @ np.linalg.pinv(AtA) @ E.transpose(0, 2, 1) * (sigma**2)[:, None, None]

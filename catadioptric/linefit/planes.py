@@ -30,7 +30,8 @@ import numpy as np
 from ._common import tangent_basis
 from .distances import pixels_with_rays
 
-__all__ = ["Rays", "pixel_rays_with_jacobian", "plane_distances", "refine_plane", "plane_covariance"]
+__all__ = ["Rays", "pixel_rays_with_jacobian", "plane_distances", "refine_plane", "plane_covariance",
+           "refine_planes", "plane_covariances"]
 
 
 @dataclass
@@ -104,3 +105,45 @@ def plane_covariance(n: np.ndarray, rays: Rays, sigma: float) -> np.ndarray:
     w = 1.0 / np.maximum(np.linalg.norm(np.einsum("mki,k->mi", Jd, n), axis=-1), 1e-300)
     A = (d @ E) * w[:, None]
     return E @ np.linalg.pinv(A.T @ A) @ E.T * sigma**2
+
+
+def refine_planes(rays, line, mask, G, lines=None, iters: int = 50, tol: float = 1e-14):
+    """:func:`refine_plane` of ``G`` lines at once (no start normal): each line's normal ``(G, 3)``
+    from its rays in ``mask`` (``line (M,)``: each ray's line), ``lines (G,)``: those to refine
+    (the others' rows are left NaN)."""
+    active = np.ones(G, dtype=bool) if lines is None else lines.copy()
+    d, Jd = rays.d, rays.Jd
+    w = mask.astype(float)
+    n = np.full((G, 3), np.nan)
+    first = True
+    for _ in range(iters):
+        if not active.any():
+            break
+        dw = d * w[:, None]
+        S = np.stack([np.bincount(line, dw[:, a] * d[:, b], G) for a in range(3) for b in range(3)], 1).reshape(G, 3, 3)
+        n_new = np.linalg.eigh(S[active])[1][:, :, 0]
+        if not first:
+            n_new = np.where((np.sum(n_new * n[active], axis=1) < 0)[:, None], -n_new, n_new)
+            done = np.linalg.norm(n_new - n[active], axis=1) < tol
+        else:
+            done = np.zeros(len(n_new), dtype=bool)
+        n[active] = n_new
+        m = mask & active[line]
+        w[m] = 1.0 / np.maximum(np.linalg.norm(np.einsum("mk,mkj->mj", n[line[m]], Jd[m]), axis=-1), 1e-300) ** 2
+        idx = np.flatnonzero(active)
+        active[idx[done]] = False
+        first = False
+    return n
+
+
+def plane_covariances(n, rays, line, mask, sigma):
+    """:func:`plane_covariance` of ``G`` lines' normals ``n (G, 3)`` at once, each from its rays in
+    ``mask`` (``line (M,)``: each ray's line), with pixel noise ``sigma (G,)``."""
+    G = len(n)
+    e1, e2 = tangent_basis(n)
+    E = np.stack([e1, e2], axis=2)  # (G, 3, 2)
+    nl = n[line]
+    w = 1.0 / np.maximum(np.linalg.norm(np.einsum("mk,mkj->mj", nl, rays.Jd), axis=-1), 1e-300)
+    A = np.einsum("mi,mij->mj", rays.d, E[line]) * (w * mask)[:, None]
+    AtA = np.stack([np.bincount(line, A[:, a] * A[:, b], G) for a in range(2) for b in range(2)], 1).reshape(G, 2, 2)
+    return E @ np.linalg.pinv(AtA) @ E.transpose(0, 2, 1) * (sigma**2)[:, None, None]
