@@ -89,6 +89,9 @@ class PoseOptions:
     model_error_px: float = 0.0
     decisive_matching: float | None = None
     calibration_rms_px: float = 0.0
+    #: the two-view refinement also fits the lines seen in one view only; False: the lines seen in
+    #: both views alone (:func:`labelled_pose`); the image path sets it (:func:`_noncentral_candidate`)
+    one_view_lines: bool = False
 
     def checked(self) -> PoseOptions:
         """These options with each number checked (a one-line error naming a bad one) and made a float."""
@@ -309,19 +312,30 @@ def _side_in_plane(n, s, d):
     return (-u if len(d) and np.mean(d @ u) < 0 else u), norm
 
 
-def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, max_pixels, sigma_cost, pixel_sigma, meeting=None):
-    """Starting translation and two-view refinement of one rotation candidate. Returns
-    ``(TwoViewFit or None, lines matched)``; None when fewer than two lines are matched in both
-    views."""
+def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, opts, sigma_cost, meeting=None):
+    """Starting translation and two-view refinement of one rotation candidate (``opts``:
+    :class:`PoseOptions`). Returns ``(TwoViewFit or None, lines matched)``; None when fewer than two
+    lines are matched in both views.
+
+    The refinement fits the lines seen in both views; those seen in one view only with
+    ``opts.one_view_lines``. Labelled lines seen in one view only are left out: a near-central rig
+    barely tells such a line's distance, which ran to its bound (twice the mirror's size), where the
+    refinement's steps failed twice as often, for a direction constraint the lines of both views
+    already give (the relative-pose benchmark's label evaluation 1.3 times faster, its medians in
+    their intervals; validate/NOTES.md, "one-view lines"). The image path keeps them: its lines
+    left unmatched are mostly seen in both views, and without them its rotation errors were 1.6-4
+    times larger."""
     R = cand.R
     t_dir = cand.t if cand.t is not None else (None if crossing is None else crossing.t)
+    max_pixels, pixel_sigma = opts.max_pixels, opts.pixel_sigma
     matched, single = [], []  # (key, ka, kb) with ka/kb None for a line seen in one view only
     for key in keys:
         A_ids = {va.line_id[i]: k for k, i in enumerate(ea[key].lines) if va.line_id[i] is not None}
         B_ids = {vb.line_id[i]: k for k, i in enumerate(eb[key].lines) if vb.line_id[i] is not None}
         matched += [(key, A_ids[lid], B_ids[lid]) for lid in A_ids if lid in B_ids]
-        single += [(key, k, None) for k, i in enumerate(ea[key].lines) if va.line_id[i] not in B_ids]
-        single += [(key, None, k) for k, i in enumerate(eb[key].lines) if vb.line_id[i] not in A_ids]
+        if opts.one_view_lines:
+            single += [(key, k, None) for k, i in enumerate(ea[key].lines) if va.line_id[i] not in B_ids]
+            single += [(key, None, k) for k, i in enumerate(eb[key].lines) if vb.line_id[i] not in A_ids]
     if len(matched) < 2:
         return None, len(matched)
     rays = lambda view, est, k: view.cam.backproject(_pixels_of(view, est, k, max_pixels))
@@ -487,9 +501,7 @@ def labelled_pose(view_a: ViewLines, view_b: ViewLines, ends: dict | None, opts:
                          f"the directions' alone ({margin:.1f}), where lines meet does not tell the candidates apart")
     if not central:
         out, n_matched, refined_margin = _refine_on_pixels(out, stage, keys, view_a, view_b, ea, eb, rays, weak, notes,
-                                                           decisive=decisive, max_pixels=max_pixels,
-                                                           sigma_cost=sigma_cost, pixel_sigma=pixel_sigma,
-                                                           n_matched=n_matched)
+                                                           opts=opts, sigma_cost=sigma_cost, n_matched=n_matched)
         if refined_margin is not None:
             margin = refined_margin
     best = out[0]
@@ -558,14 +570,14 @@ def _first_stage(a, b, Ca, Cb, keys, view_a, view_b, ea, eb, ends, max_rotation_
     return stage, out, rays
 
 
-def _refine_on_pixels(out, stage, keys, view_a, view_b, ea, eb, rays, weak, notes, *, decisive, max_pixels, sigma_cost,
-                      pixel_sigma, n_matched):
+def _refine_on_pixels(out, stage, keys, view_a, view_b, ea, eb, rays, weak, notes, *, opts, sigma_cost, n_matched):
     """Stage 2 of :func:`_relative_pose` (non-central rigs): the candidates ``out`` of stage 1
     (``stage``: their ``(score, sign candidate, crossing fit)``) refined on the pixels of both views
-    as the comment below says. Returns ``(out, n_matched, margin)``: the candidates, the refined
-    first by their cost; the most lines matched; the margin to the next different answer, None when
-    no candidate was refined (stage 1's margin stands). Notes are appended to ``notes``."""
-    margin = None
+    as the comment below says (``opts``: :class:`PoseOptions`). Returns ``(out, n_matched,
+    margin)``: the candidates, the refined first by their cost; the most lines matched; the margin to
+    the next different answer, None when no candidate was refined (stage 1's margin stands). Notes
+    are appended to ``notes``."""
+    margin, decisive = None, opts.decisive
     # stage 2: the metric refinement on the pixels of both views. The best candidate of stage 1 and
     # every one stage 1 cannot tell from it (within ``decisive``) are refined and ranked by the
     # refinement's cost; if the best of stage 1 then does not fit the pixels, every candidate is.
@@ -573,9 +585,8 @@ def _refine_on_pixels(out, stage, keys, view_a, view_b, ea, eb, rays, weak, note
     done = set()
     while todo:
         for i in todo:
-            fit, n_m = _noncentral_candidate(out[i], keys, view_a, view_b, ea, eb, stage[i][2],
-                                             max_pixels=max_pixels, sigma_cost=sigma_cost, pixel_sigma=pixel_sigma,
-                                             meeting=rays)
+            fit, n_m = _noncentral_candidate(out[i], keys, view_a, view_b, ea, eb, stage[i][2], opts=opts,
+                                             sigma_cost=sigma_cost, meeting=rays)
             n_matched = max(n_matched, n_m)
             done.add(i)
             if fit is not None:

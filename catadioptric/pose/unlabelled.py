@@ -54,6 +54,8 @@ def unlabelled_pose(view_a: ViewLines, view_b: ViewLines, opts: PoseOptions) -> 
     each the lines matched by where they meet (:func:`~catadioptric.pose.matching.match_lines`),
     ranked by direction cost plus the meeting rays' cost (the same rays of A for every
     assignment); the best goes through the labelled path with its ends known."""
+    # the lines left unmatched are mostly seen in both views: the refinement keeps them
+    opts = replace(opts, one_view_lines=True)
     seed, f_scale, pixel_sigma, decisive = opts.seed, opts.f_scale, opts.pixel_sigma, opts.decisive
     max_pixels, min_families, max_rotation_deg = opts.max_pixels, opts.min_families, opts.max_rotation_deg
     model_error_px, decisive_matching = opts.model_error_px, opts.decisive_matching
