@@ -139,6 +139,8 @@ def test_the_refinement_explains_the_lines_seen_in_both_views():
     other image) has a distance a near-central rig barely tells, and is left out
     (validate/NOTES.md, "one-view lines"): the refinement's lines are those of both views, its
     pixels at most theirs."""
+    from catadioptric.pose import labelled
+
     va, vb, R_gt, _ = _pair("hyperboloid_9pct", noise=0.5, seed=4)
     ids_a, ids_b = set(va.line_id), set(vb.line_id)
     assert ids_a - ids_b and ids_b - ids_a  # the scene has lines seen in one view only
@@ -150,6 +152,14 @@ def test_the_refinement_explains_the_lines_seen_in_both_views():
     assert len(fit.inliers_a) <= pixels_both[0] and len(fit.inliers_b) <= pixels_both[1]
     # the rotation within 5 of its own largest deviations (a 3-D normal error beyond that: < 1e-4)
     assert rotation_angle_deg(res.R @ R_gt.T) < 5 * np.degrees(np.sqrt(np.linalg.eigvalsh(res.cov[:3, :3]).max()))
+    # B keeps five lines of each family: A's other lines, more than ONE_VIEW_LINES_OVER times as many
+    # as those of both views, now carry the families' directions and enter the refinement too
+    keep = [k for f in range(3) for k in np.flatnonzero(np.asarray(vb.family) == f)[:5]]
+    vb5 = ViewLines(vb.cam, [vb.uv[k] for k in keep], [vb.family[k] for k in keep], [vb.line_id[k] for k in keep])
+    both = ids_a & set(vb5.line_id)
+    assert len(ids_a - both) > labelled.ONE_VIEW_LINES_OVER * len(both)
+    fit = relative_pose(va, vb5).candidates[0].fit
+    assert len(fit.points) > len(both)
 
 
 def test_the_noise_comes_out_at_the_noise_added():

@@ -72,6 +72,12 @@ MIN_MEETINGS = 30
 #: grows with the pixels fitted: the bar is at least this many chi-square units per pixel of the best fit
 #: (calibrated on validate/relative_pose_wide.toml; docs/relative_pose.md, "The verdict at wide baselines").
 WEAK_BAR_PER_PIXEL = 0.5
+#: The lines seen in one view only enter the two-view refinement when they are more than this many times
+#: the lines seen in both (:func:`_noncentral_candidate`). Set between the committed benchmark's pairs
+#: (at most 1.33 times as many; leaving them out changed no median beyond its interval and took a
+#: fifth off the label path's time) and the wide pairs where leaving them out cost accuracy (3.8-8.9
+#: times as many; validate/NOTES.md, "one-view lines").
+ONE_VIEW_LINES_OVER = 1.5
 
 
 @dataclass(frozen=True)
@@ -89,8 +95,9 @@ class PoseOptions:
     model_error_px: float = 0.0
     decisive_matching: float | None = None
     calibration_rms_px: float = 0.0
-    #: the two-view refinement also fits the lines seen in one view only; False: the lines seen in
-    #: both views alone (:func:`labelled_pose`); the image path sets it (:func:`_noncentral_candidate`)
+    #: the two-view refinement fits the lines seen in one view only too; False: only where they
+    #: outnumber the lines seen in both views (``ONE_VIEW_LINES_OVER``); the image path sets it
+    #: (:func:`_noncentral_candidate`)
     one_view_lines: bool = False
 
     def checked(self) -> PoseOptions:
@@ -317,14 +324,16 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, opts, sigma_c
     :class:`PoseOptions`). Returns ``(TwoViewFit or None, lines matched)``; None when fewer than two
     lines are matched in both views.
 
-    The refinement fits the lines seen in both views; those seen in one view only with
-    ``opts.one_view_lines``. Labelled lines seen in one view only are left out: a near-central rig
-    barely tells such a line's distance, which ran to its bound (twice the mirror's size), where the
-    refinement's steps failed twice as often, for a direction constraint the lines of both views
-    already give (the relative-pose benchmark's label evaluation 1.3 times faster, its medians in
-    their intervals; validate/NOTES.md, "one-view lines"). The image path keeps them: its lines
-    left unmatched are mostly seen in both views, and without them its rotation errors were 1.6-4
-    times larger."""
+    The refinement fits the lines seen in both views, and those seen in one view only with
+    ``opts.one_view_lines`` or where they are more than ``ONE_VIEW_LINES_OVER`` times as many. A
+    near-central rig barely tells a one-view line's distance, which ran to its bound (twice the
+    mirror's size), where the refinement's steps failed twice as often; where the lines of both
+    views are many, they give the families' directions without them (the relative-pose benchmark,
+    at most 1.33 times as many one-view lines: its label evaluation 1.25 times faster, its medians in
+    their intervals), where they are few the one-view lines carry the directions (the wide pairs,
+    3.8-8.9 times as many: rotation errors up to 10 times larger without them; validate/NOTES.md,
+    "one-view lines"). The image path keeps them: its lines left unmatched are mostly seen in both
+    views, and without them its rotation errors were 1.6-4 times larger."""
     R = cand.R
     t_dir = cand.t if cand.t is not None else (None if crossing is None else crossing.t)
     max_pixels, pixel_sigma = opts.max_pixels, opts.pixel_sigma
@@ -333,9 +342,10 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, opts, sigma_c
         A_ids = {va.line_id[i]: k for k, i in enumerate(ea[key].lines) if va.line_id[i] is not None}
         B_ids = {vb.line_id[i]: k for k, i in enumerate(eb[key].lines) if vb.line_id[i] is not None}
         matched += [(key, A_ids[lid], B_ids[lid]) for lid in A_ids if lid in B_ids]
-        if opts.one_view_lines:
-            single += [(key, k, None) for k, i in enumerate(ea[key].lines) if va.line_id[i] not in B_ids]
-            single += [(key, None, k) for k, i in enumerate(eb[key].lines) if vb.line_id[i] not in A_ids]
+        single += [(key, k, None) for k, i in enumerate(ea[key].lines) if va.line_id[i] not in B_ids]
+        single += [(key, None, k) for k, i in enumerate(eb[key].lines) if vb.line_id[i] not in A_ids]
+    if not (opts.one_view_lines or len(single) > ONE_VIEW_LINES_OVER * len(matched)):
+        single = []
     if len(matched) < 2:
         return None, len(matched)
     rays = lambda view, est, k: view.cam.backproject(_pixels_of(view, est, k, max_pixels))
