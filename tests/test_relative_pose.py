@@ -138,7 +138,7 @@ def test_the_refinement_explains_the_lines_seen_in_both_views():
     view alone (here, a line of the box scene seen in A only, two in B only: too short or out of the
     other image) has a distance a near-central rig barely tells, and is left out
     (validate/NOTES.md, "one-view lines"): the refinement's lines are those of both views, its
-    pixels at most theirs."""
+    pixels at most theirs; unless the one-view lines outnumber them (``ONE_VIEW_LINES_OVER``)."""
     from catadioptric.pose import labelled
 
     va, vb, R_gt, _ = _pair("hyperboloid_9pct", noise=0.5, seed=4)
@@ -274,7 +274,7 @@ def test_without_labels_families_and_lines_are_matched_by_the_geometry():
 def test_without_labels_the_refinement_keeps_the_lines_left_unmatched(monkeypatch):
     """The image path's lines left unmatched are mostly seen in both views (the matching finds few):
     its refinement fits them as lines of one view (``PoseOptions.one_view_lines``; without them the
-    benchmark's image pairs came out 1.6-4 times worse), the label path's only the lines of both."""
+    benchmark's image pairs came out 1.6-4.2 times worse), the label path's only the lines of both."""
     from catadioptric.pose import labelled
 
     seen = []
