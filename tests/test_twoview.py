@@ -478,6 +478,26 @@ def test_an_assignment_whose_lines_match_nothing_costs_the_ceiling():
     assert none.n_crossings == found.n_crossings and none.cost == 9.0 * none.n_crossings
 
 
+def test_the_lines_matched_in_their_order_are_sought_once_for_both_scorings():
+    """The lines matched in their order do not look at the appearance: the geometry-alone scoring of
+    an assignment reuses those the first scoring found (``ordered``) and gives what seeking them
+    again gives; the ones passed are the ones used."""
+    from catadioptric.pose.families import fit_view_families
+    from catadioptric.pose.matching import family_matches, match_lines
+
+    va, vb, _ = _unlabelled_pair()
+    ea, _ = fit_view_families(va, exact=False)
+    eb, _ = fit_view_families(vb, exact=False)
+    m = family_matches(ea, eb)[0]
+    found = match_lines(va, vb, ea, eb, m)
+    assert found.ordered
+    again = match_lines(va, vb, ea, eb, m, appearance=False, ordered=found.ordered)
+    fresh = match_lines(va, vb, ea, eb, m, appearance=False)
+    assert again.pairs == fresh.pairs and again.cost == fresh.cost and np.array_equal(again.t, fresh.t)
+    assert again.cost_unordered == fresh.cost_unordered and again.n_inliers == fresh.n_inliers
+    assert match_lines(va, vb, ea, eb, m, ordered=[]).ordered == []
+
+
 def test_a_rival_that_cannot_be_scored_leaves_the_answer_ambiguous(monkeypatch):
     """A rival assignment whose cost is not finite is no evidence for the winner: the answer is
     ambiguous, the notes say why, and the margin is not an infinite one."""

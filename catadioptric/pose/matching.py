@@ -28,7 +28,7 @@ ends known (the assignment's signs).
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -163,6 +163,9 @@ class LineMatch:
     #: the best verified cost of the RANSAC's displacements alone (the lines matched in their order,
     #: :class:`LinesInOrder`, left out); ``cost`` when those are all there is
     cost_unordered: float | None = None
+    #: the lines matched in their order, unverified (:meth:`LinesInOrder.hypotheses`), for another
+    #: call of :func:`match_lines` on the same assignment (``ordered``); None where none were sought
+    ordered: list | None = field(default=None, repr=False)
 
 
 def _crossings(view, est: dict, fam_of: dict):
@@ -454,14 +457,16 @@ class LinesInOrder:
 def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma_px: float = 1.0, seed: int = 0,
                 trials: int = 2000, neighbours: int = 4, max_parallax_deg: float = 45.0,
                 c2: float = 9.0, verify: int = 8, verify_apart_deg: float = 2.0,
-                max_ordered_lines: int = 24, appearance: bool = True) -> LineMatch:
+                max_ordered_lines: int = 24, appearance: bool = True, ordered: list | None = None) -> LineMatch:
     """Match the lines of the two views for one family assignment (module docstring). ``verify``:
     the number of RANSAC displacements, best first and at least ``verify_apart_deg`` apart, that are
     each refined and verified by the one-to-one matching of the lines; the best verified one wins.
     ``max_ordered_lines``: families of at most this many lines in each view are also matched in
     their order (:class:`LinesInOrder`), and those matchings are verified the same way.
     ``appearance=False``: the lines' appearance is not used even where both views carry it (the
-    geometry alone, as reported beside the answer's margin)."""
+    geometry alone, as reported beside the answer's margin). ``ordered``: the lines matched in their
+    order as an earlier call on the same views, assignment and options found them
+    (``LineMatch.ordered``; they do not look at the appearance), instead of seeking them again."""
     R = match.R
     xa, la, pa = _crossings(view_a, ea, {k: k for k in ea})
     xb, lb, pb = _crossings(view_b, eb, {b: a for b, (a, _) in match.mapping.items()})
@@ -611,9 +616,11 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
 
     found = by_neighbours()
     unordered = min((m.cost for m in found), default=float(c2 * len(xa)))
-    ordered = LinesInOrder(ea, eb, match, (xa, la), (xb, lb), max_lines=max_ordered_lines)
-    found += [scored(pairs, t) for pairs, t in ordered.hypotheses(thr, c2, top=verify)]
+    if ordered is None:
+        ordered = LinesInOrder(ea, eb, match, (xa, la), (xb, lb), max_lines=max_ordered_lines).hypotheses(thr, c2,
+                                                                                                        top=verify)
+    found += [scored(pairs, t) for pairs, t in ordered]
     if not found:
-        return LineMatch([], None, float(c2 * len(xa)), 0, len(xa), float(c2 * len(xa)))
+        return LineMatch([], None, float(c2 * len(xa)), 0, len(xa), float(c2 * len(xa)), ordered)
     best = min(found, key=lambda m: (m.cost, -m.n_inliers))
-    return LineMatch(best.pairs, best.t, best.cost, best.n_inliers, best.n_crossings, unordered)
+    return LineMatch(best.pairs, best.t, best.cost, best.n_inliers, best.n_crossings, unordered, ordered)

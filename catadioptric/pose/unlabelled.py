@@ -83,7 +83,8 @@ def unlabelled_pose(view_a: ViewLines, view_b: ViewLines, opts: PoseOptions) -> 
         lm = matching.match_lines(view_a, view_b, ea, eb, m, sigma_px=sigma, seed=seed)
         scored.append((m.cost + lm.cost, m, lm))
         if seen:  # the same assignment scored by the geometry alone (the evidence reported with the answer)
-            geometry[id(m)] = matching.match_lines(view_a, view_b, ea, eb, m, sigma_px=sigma, seed=seed, appearance=False)
+            geometry[id(m)] = matching.match_lines(view_a, view_b, ea, eb, m, sigma_px=sigma, seed=seed, appearance=False,
+                                                   ordered=lm.ordered)
     scored.sort(key=lambda x: x[0] if np.isfinite(x[0]) else np.inf)
     best_score, best, lines = scored[0]
     others = [s for s, m, _ in scored[1:] if rotation_angle_deg(m.R @ best.R.T) > SAME_ANSWER_DEG]
