@@ -216,6 +216,29 @@ def test_errors_name_their_cause():
         relative_pose(va, vb, calibration_rms_px=-0.5)
 
 
+def test_a_cameras_angle_per_pixel_is_found_once():
+    """``rad_per_px`` backprojects its grid once per camera object (the image path asks it of every
+    family assignment); another object of the same camera gets the same angle."""
+    from catadioptric.pose.central import rad_per_px
+
+    cam = _pair("hyperboloid")[0].cam
+
+    class Counting:
+        def __init__(self):
+            self.pinhole, self.calls = cam.pinhole, 0
+
+        def backproject(self, uv):
+            self.calls += 1
+            return cam.backproject(uv)
+
+    c = Counting()
+    first = rad_per_px(c)
+    calls = c.calls
+    assert calls > 0 and rad_per_px(c) == first and c.calls == calls
+    assert rad_per_px(Counting()) == first == rad_per_px(cam)
+    assert 1e-4 < first < 1e-2
+
+
 def test_a_model_error_is_an_error_every_pixel_of_a_line_shares():
     """``model_error_px`` adds ``(e * rad_per_px)^2 (I - n n')`` to each plane's normal covariance,
     however many pixels the line has, and the family's direction is no longer trusted beyond it."""

@@ -22,6 +22,7 @@ on both halves, which orients it and rejects many pairs at once.
 """
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -54,8 +55,27 @@ class CrossingFit:
     inliers: np.ndarray | None = None
 
 
+#: each camera's angle per pixel, found once (the cameras are frozen; the image path's line matching
+#: asks it of every family assignment, which cost 3 % of a pair without a motion prior)
+_RAD_PER_PX: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def rad_per_px(cam) -> float:
-    """Median angle between the rays of neighbouring pixels (radians per pixel)."""
+    """Median angle between the rays of neighbouring pixels (radians per pixel); computed once per
+    camera object."""
+    try:
+        return _RAD_PER_PX[cam]
+    except (KeyError, TypeError):  # not yet, or a camera that cannot be weakly referenced
+        pass
+    value = _rad_per_px(cam)
+    try:
+        _RAD_PER_PX[cam] = value
+    except TypeError:
+        pass
+    return value
+
+
+def _rad_per_px(cam) -> float:
     pin = getattr(cam, "pinhole", None)
     w, h = (pin.width, pin.height) if pin is not None else (cam.width or 640, cam.height or 480)
     u, v = np.meshgrid(np.linspace(0, w - 2, 24), np.linspace(0, h - 2, 18))

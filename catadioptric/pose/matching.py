@@ -559,21 +559,14 @@ def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma
         # the candidate pairs come grouped by their meeting ray of A (ci does not decrease)
         starts = np.flatnonzero(np.r_[True, ci[1:] != ci[:-1]])
 
-        def per_crossing_cost(Ts):
-            r2, _ = truncated_residuals2(A, p_, q_, Ts, thr, c2, min_parallax=3.0 * thr)  # per candidate pair
-            # each meeting ray of A at its best candidate (c2 at most); the rays with none cost c2
-            best = np.full((len(Ts), len(xa)), c2)
-            best[:, ci[starts]] = np.minimum(np.minimum.reduceat(r2, starts, axis=1), c2)
-            return best.sum(axis=1), r2
-
         def best_pairs(t):
-            """Each meeting ray of A at its best inlier candidate in B: ``{i: candidate index}``."""
-            r2 = per_crossing_cost(t[None])[1][0]
-            best = {}
-            for k in np.nonzero(r2 < c2)[0]:
-                if ci[k] not in best or r2[k] < r2[best[ci[k]]]:
-                    best[ci[k]] = k
-            return best
+            """Each meeting ray of A at its best inlier candidate in B, the first of equals:
+            ``{i: candidate index}`` in the order of ``i``."""
+            r2 = truncated_residuals2(A, p_, q_, t[None], thr, c2, min_parallax=3.0 * thr)[0][0]
+            k = np.flatnonzero(r2 < c2)
+            k = k[np.lexsort((k, r2[k], ci[k]))]  # by meeting ray, then residual, then candidate
+            first = np.r_[True, ci[k][1:] != ci[k][:-1]][:len(k)]
+            return dict(zip(ci[k][first].tolist(), k[first].tolist()))
 
         costs = neighbour_costs(np.ascontiguousarray(T), np.ascontiguousarray(A), np.ascontiguousarray(p_),
                                 np.ascontiguousarray(q_), np.r_[starts, len(ci)].astype(np.int64), len(xa),
