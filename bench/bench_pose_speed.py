@@ -1,12 +1,14 @@
 """The relative pose's seconds on benchmark pairs, and against another revision of the code
 (issue 41: "ratios against the current code measured in the same run").
 
-Three measurements, each on the pairs of the relative-pose benchmark's datasets (rendered by
+Four measurements, each on the pairs of the relative-pose benchmark's datasets (rendered by
 ``catadioptric validate benchmark``, default ``render/out/relative_pose_benchmark``):
 
 * ``labels``: :func:`catadioptric.pose.relative_pose` of each pair's labelled lines at ``--noise``
   pixels, one draw per ``--seeds`` (the pixels sampled beforehand, as the benchmark does);
 * ``images``: :func:`catadioptric.relative_pose` of each pair's two beauty images, prior 60 degrees;
+* ``images-no-prior``: the same without a motion prior (the default; every family assignment a
+  rotation allows is matched and scored);
 * ``detection``: :func:`catadioptric.detect.detect_lines` of each view's beauty image.
 
 Each measurement runs in a fresh process (``--measure``), which also writes a digest of every
@@ -42,7 +44,7 @@ from common import metadata, write_json  # noqa: E402
 PAIRS = ["sphere_povray:p01", "sphere_mitsuba:p02", "ellipsoid_mitsuba:p04", "ellipsoid_povray:p03",
          "hyperboloid_povray:p07", "hyperboloid_mitsuba:p10", "hyperboloid_9pct_mitsuba:p08",
          "hyperboloid_central_mitsuba:p06"]
-WHAT = ("labels", "images", "detection")
+WHAT = ("labels", "images", "images-no-prior", "detection")
 
 
 def _measure(data: str, pairs: list, seeds: list, noise: float, what: str) -> dict:
@@ -68,10 +70,11 @@ def _measure(data: str, pairs: list, seeds: list, noise: float, what: str) -> di
                 lines = [line_pixels(v, noise_px=noise, rng=rng) for v in (va, vb)]
                 views = [ViewLines(v["camera"], b.uv, b.family, b.segment) for v, b in zip((va, vb), lines)]
                 jobs.append(lambda views=views, seed=seed: relative_pose(views[0], views[1], seed=seed))
-        elif what == "images":
+        elif what in ("images", "images-no-prior"):
             a, b = (os.path.join(folder, pair + s, "beauty.png") for s in "AB")
-            jobs.append(lambda a=a, b=b, rig=os.path.join(folder, pair + "A"):
-                        cd.relative_pose(a, b, rig, max_rotation_deg=60.0).pose)
+            prior = 60.0 if what == "images" else None
+            jobs.append(lambda a=a, b=b, rig=os.path.join(folder, pair + "A"), prior=prior:
+                        cd.relative_pose(a, b, rig, max_rotation_deg=prior).pose)
         else:
             from catadioptric.detect import detect_lines
 
@@ -152,7 +155,7 @@ def main() -> int:
                     for c, code in codes.items():
                         res = _run(code, args, w)
                         runs[w][c].append(res)
-                        print(f"round {r + 1} {w:9s} {c:10s} {res['total']:7.2f} s (median {res['median']:.3f} s)",
+                        print(f"round {r + 1} {w:15s} {c:10s} {res['total']:7.2f} s (median {res['median']:.3f} s)",
                               flush=True)
         finally:
             if args.compare:
@@ -171,10 +174,10 @@ def main() -> int:
             base, cur = (float(np.median(row[c]["total_seconds"])) for c in (args.compare, "current"))
             row["ratio"] = base / cur
             row["same_results"] = row[args.compare]["digest"] == row["current"]["digest"]
-            print(f"{w:9s} {args.compare} {base:.2f} s -> current {cur:.2f} s: {base / cur:.2f}x, "
+            print(f"{w:15s} {args.compare} {base:.2f} s -> current {cur:.2f} s: {base / cur:.2f}x, "
                   f"results {'identical' if row['same_results'] else 'DIFFER'}")
         for pair in args.pairs:
-            print(f"  {w:9s} {pair:34s} " + "  ".join(f"{c} {row[c]['median_seconds_by_pair'][pair]:.2f} s"
+            print(f"  {w:15s} {pair:34s} " + "  ".join(f"{c} {row[c]['median_seconds_by_pair'][pair]:.2f} s"
                                                   for c in by_code))
         out["results"][w] = row
     write_json(args.out, out)
