@@ -7,7 +7,7 @@ import pytest
 from catadioptric.models import MeiCamera
 from catadioptric.pose import ViewLines, relative_pose, rotation_angle_deg
 from catadioptric.pose.families import fit_view_families
-from catadioptric.pose.matching import family_matches, match_lines
+from catadioptric.pose.matching import LineMatchOptions, family_matches, match_lines
 
 # a paracatadioptric camera like that of ../shared/real/mei (its calibration's K and xi), and two
 # poses of a 9 x 7-square board of 42 mm there (those OpenCV found in its images 001 and 002,
@@ -67,7 +67,7 @@ def test_the_right_assignment_matches_the_board_in_order(board):
     m = min(family_matches(ea, eb), key=lambda m: min(rotation_angle_deg(m.R @ T.T) for T in truths))
     assert min(rotation_angle_deg(m.R @ T.T) for T in truths) < 0.5
     ordered = match_lines(va, vb, ea, eb, m)
-    alone = match_lines(va, vb, ea, eb, m, max_ordered_lines=0)
+    alone = match_lines(va, vb, ea, eb, m, options=LineMatchOptions(max_ordered_lines=0))
     assert ordered.n_crossings == 80
     assert ordered.n_inliers >= 0.9 * 80, ordered.n_inliers
     assert alone.n_inliers < 0.5 * 80, alone.n_inliers

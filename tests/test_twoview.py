@@ -464,7 +464,7 @@ def test_an_assignment_whose_lines_match_nothing_costs_the_ceiling():
     the truncated cost's ceiling (9 per meeting point of A, none found), not inf: an infinite rival
     cost made the winner's margin infinite, a wrong answer decisive."""
     from catadioptric.pose.families import fit_view_families
-    from catadioptric.pose.matching import family_matches, match_lines
+    from catadioptric.pose.matching import LineMatchOptions, family_matches, match_lines
 
     va, vb, _ = _unlabelled_pair()
     ea, _ = fit_view_families(va, exact=False)
@@ -473,7 +473,7 @@ def test_an_assignment_whose_lines_match_nothing_costs_the_ceiling():
     found = match_lines(va, vb, ea, eb, m)
     assert found.t is not None and 0 < found.cost < 9.0 * found.n_crossings
     # no meeting point of A near one of B, and no family matched in its order
-    none = match_lines(va, vb, ea, eb, m, max_parallax_deg=1e-9, max_ordered_lines=0)
+    none = match_lines(va, vb, ea, eb, m, options=LineMatchOptions(max_parallax_deg=1e-9, max_ordered_lines=0))
     assert none.t is None and none.pairs == [] and none.n_inliers == 0
     assert none.n_crossings == found.n_crossings and none.cost == 9.0 * none.n_crossings
 

@@ -38,8 +38,8 @@ from ._kernels import alignment_table, neighbour_costs
 from .central import meeting, rad_per_px, residuals2, sides, translation_costs, truncated_residuals2
 from .rotation import refine_rotation, rotation_angle_deg, rotation_from_directions, with_floor
 
-__all__ = ["FamilyMatch", "family_matches", "LineMatch", "LinesInOrder", "match_lines", "MIN_CONTRAST",
-           "FAMILY_FLOOR_DEG"]
+__all__ = ["FamilyMatch", "family_matches", "LineMatch", "LineMatchOptions", "LinesInOrder", "match_lines",
+           "MIN_CONTRAST", "FAMILY_FLOOR_DEG"]
 
 #: the error (degrees) :func:`family_matches` adds across every family's direction by default, for
 #: what its covariance leaves out (its docstring)
@@ -454,19 +454,41 @@ class LinesInOrder:
         return out
 
 
+@dataclass(frozen=True, kw_only=True)
+class LineMatchOptions:
+    """How :func:`match_lines` matches the lines of one family assignment (its docstring)."""
+
+    #: random pairs of candidate meeting-ray pairs the RANSAC draws
+    trials: int = 2000
+    #: each meeting ray of A is paired with at most this many nearest of B under the rotation
+    neighbours: int = 4
+    #: ... and only those within this angle of it (degrees: its parallax)
+    max_parallax_deg: float = 45.0
+    #: the truncated cost's ceiling per meeting ray (squared deviations)
+    c2: float = 9.0
+    #: the RANSAC's displacements verified, best first ...
+    verify: int = 8
+    #: ... at least this far apart (degrees)
+    verify_apart_deg: float = 2.0
+    #: families of at most this many lines in each view are also matched in their order
+    max_ordered_lines: int = 24
+
+
 def match_lines(view_a, view_b, ea: dict, eb: dict, match: FamilyMatch, *, sigma_px: float = 1.0, seed: int = 0,
-                trials: int = 2000, neighbours: int = 4, max_parallax_deg: float = 45.0,
-                c2: float = 9.0, verify: int = 8, verify_apart_deg: float = 2.0,
-                max_ordered_lines: int = 24, appearance: bool = True, ordered: list | None = None) -> LineMatch:
-    """Match the lines of the two views for one family assignment (module docstring). ``verify``:
-    the number of RANSAC displacements, best first and at least ``verify_apart_deg`` apart, that are
-    each refined and verified by the one-to-one matching of the lines; the best verified one wins.
-    ``max_ordered_lines``: families of at most this many lines in each view are also matched in
-    their order (:class:`LinesInOrder`), and those matchings are verified the same way.
+                options: LineMatchOptions = LineMatchOptions(), appearance: bool = True,
+                ordered: list | None = None) -> LineMatch:
+    """Match the lines of the two views for one family assignment (module docstring). ``options``
+    (:class:`LineMatchOptions`): ``verify``, the number of RANSAC displacements, best first and at
+    least ``verify_apart_deg`` apart, that are each refined and verified by the one-to-one matching
+    of the lines, the best verified one winning; ``max_ordered_lines``: families of at most this
+    many lines in each view are also matched in their order (:class:`LinesInOrder`), and those
+    matchings are verified the same way.
     ``appearance=False``: the lines' appearance is not used even where both views carry it (the
     geometry alone, as reported beside the answer's margin). ``ordered``: the lines matched in their
     order as an earlier call on the same views, assignment and options found them
     (``LineMatch.ordered``; they do not look at the appearance), instead of seeking them again."""
+    trials, neighbours, max_parallax_deg, c2 = options.trials, options.neighbours, options.max_parallax_deg, options.c2
+    verify, verify_apart_deg, max_ordered_lines = options.verify, options.verify_apart_deg, options.max_ordered_lines
     R = match.R
     xa, la, pa = _crossings(view_a, ea, {k: k for k in ea})
     xb, lb, pb = _crossings(view_b, eb, {b: a for b, (a, _) in match.mapping.items()})
