@@ -113,7 +113,7 @@ def image_runs_markdown(folder: str, cov: dict, bars: dict) -> str:
                  f"{_f(m['scale_for_right_median'])} for a right median.")
     off = bars["off_deg"]
     L += ["", f"Matching bar (a best candidate more than {off:g} degrees off is wrong):", "",
-          f"| family assignments tried | runs | wrong | their largest margin | right: median margin | "
+          "| family assignments tried | runs | wrong | their largest margin | right: median margin | "
           + " | ".join(f"right, margin at least {b:g}" for b in bars["bars"]) + " |",
           "|---|---|---|---|---|" + "---|" * len(bars["bars"])]
     for g in bars["groups"]:
