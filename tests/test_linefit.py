@@ -492,3 +492,46 @@ def test_bad_input_is_named():
     with pytest.raises(E, match=r"uv: keeps fewer than 3 inlier pixels"):
         scatter = np.random.default_rng(0).uniform(100, 500, (30, 2))
         fit_line(cam, scatter, f_scale=0.1, inlier_threshold=0.01, ransac=False)
+
+
+@pytest.mark.parametrize("name", ["hyperboloid_central", "sphere"])
+def test_pixel_rays_derivatives_are_central_differences_of_each_pixel_s_own_rays(name):
+    """``pixels_with_rays`` back-projects each pixel and its four neighbours a quarter pixel away in one
+    call: its rays and derivatives are, to the bit, those of back-projecting them one set at a time
+    (pixels off the mirror included: NaN where they have no ray), for a batch of any shape."""
+    from catadioptric.linefit.distances import pixels_with_rays
+
+    cam = _cam(name)
+    rng = np.random.default_rng(3)
+    uv = rng.uniform([-20.0, -20.0], [cam.pinhole.width + 20.0, cam.pinhole.height + 20.0], size=(4, 50, 2))
+    px, valid = pixels_with_rays(cam, uv)
+    r = cam.backproject(uv)
+    assert 0 < valid.sum() < valid.size and np.array_equal(valid, r.valid)
+    np.testing.assert_array_equal(px.o, r.origins)
+    np.testing.assert_array_equal(px.d, r.directions)
+    for k in range(2):
+        e = np.eye(2)[k] * 0.25
+        rp, rm = cam.backproject(uv + e), cam.backproject(uv - e)
+        np.testing.assert_array_equal(px.Jo[..., k], (rp.origins - rm.origins) / 0.5)
+        np.testing.assert_array_equal(px.Jd[..., k], (rp.directions - rm.directions) / 0.5)
+
+
+def test_planes_refined_together_are_each_line_s_own_to_the_bit():
+    """``refine_planes`` over many lines sums, at each iteration, the rays of the lines still moving
+    only: every line's normal is, to the bit, the one it gets refined alone (lines that converge at
+    once beside lines that take many iterations; a ray outside the mask left out)."""
+    from catadioptric.linefit.planes import pixel_rays_with_jacobian, refine_planes
+
+    cam = _cam("hyperboloid_central")
+    _, clean, _ = family_pixels(cam, *FAMILIES["hyperboloid_central"])
+    rng = np.random.default_rng(11)
+    sets = [u + rng.normal(0.0, s, u.shape) for u, s in zip(clean, np.linspace(0.0, 3.0, len(clean)))]
+    rays = pixel_rays_with_jacobian(cam, np.concatenate(sets))
+    line = np.repeat(np.arange(len(sets)), [len(u) for u in sets])
+    mask = rays.ok & (rng.random(len(line)) > 0.1)
+    together = refine_planes(rays, line, mask, len(sets))
+    assert len(sets) >= 3 and np.all(np.isfinite(together))
+    for g in range(len(sets)):
+        m = line == g
+        alone = refine_planes(rays.take(m), np.zeros(m.sum(), dtype=int), mask[m], 1)
+        np.testing.assert_array_equal(together[g], alone[0])

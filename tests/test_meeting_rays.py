@@ -63,3 +63,45 @@ def test_meeting_ray_covariance_matches_monte_carlo():
     draws = _unit(np.cross(rng.multivariate_normal(n_i, C_i, 20000), rng.multivariate_normal(n_j, C_j, 20000)))
     mc = np.cov((draws - x).T)
     assert np.allclose(cov, mc, atol=0.05 * np.abs(cov).max())
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.booleans())
+def test_the_truncated_costs_test_cheirality_where_the_residual_passes_as_over_all(seed, weighted):
+    """``truncated_residuals2`` looks at the violation only where a residual passes: its inliers and
+    costs are those of the rule written out over every ray and hypothesis (residual within ``c2``
+    and violation within the threshold, or three times each ray's own angle with weights)."""
+    from catadioptric.pose.central import residual_weights, residuals2, truncated_residuals2
+
+    rng = np.random.default_rng(seed)
+    K, H = int(rng.integers(1, 40)), int(rng.integers(1, 30))
+    p, q = _unit(rng.normal(size=(K, 3))), _unit(rng.normal(size=(K, 3)))
+    A = _unit(np.cross(p, q))
+    T = _unit(rng.normal(size=(H, 3)))
+    thr, c2 = float(rng.uniform(0.01, 0.5)), 9.0
+    W = ang = None
+    if weighted:
+        cov = np.eye(3)[None] * rng.uniform(1e-5, 1e-2, size=(K, 1, 1))
+        W, ang = residual_weights(p, q, cov, cov, 0.01)
+    r2, inl = truncated_residuals2(A, p, q, T, thr, c2, W=W, ang=ang)
+    full_r2 = residuals2(A, T, thr, W)
+    lim = thr if W is None else 3.0 * ang[None, :]
+    expected = (full_r2 <= c2) & (_cheirality_violation(p, q, T) <= lim)
+    assert np.array_equal(inl, expected)
+    assert np.array_equal(r2, np.where(expected, full_r2, c2))
+
+
+def test_the_crossing_fits_pairs_are_drawn_once_per_seed_and_rays():
+    """The crossing fit's pairs of rays are the draws of its seed (distinct usable rays), kept for the
+    next rotation candidate of the same rays: the same array, read-only; other rays or another seed
+    draw anew."""
+    from catadioptric.pose.central import _pair_samples
+
+    idx = np.array([0, 2, 3, 5, 8, 9], dtype=np.intp)
+    P = _pair_samples(7, 300, 10, idx.tobytes())
+    rng = np.random.default_rng(7)
+    expected = np.array([rng.choice(idx, 2, replace=False) for _ in range(300)])
+    assert np.array_equal(P, expected) and np.all(P[:, 0] != P[:, 1]) and np.isin(P, idx).all()
+    assert _pair_samples(7, 300, 10, idx.tobytes()) is P and not P.flags.writeable
+    assert not np.array_equal(_pair_samples(8, 300, 10, idx.tobytes()), P)
+    assert np.isin(_pair_samples(7, 300, 10, idx[1:].tobytes()), idx[1:]).all()

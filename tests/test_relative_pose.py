@@ -412,3 +412,41 @@ def test_images_continued_between_steps_give_the_searched_answer(name, monkeypat
     t_sd = np.sqrt(np.trace(warm.cov[3:, 3:]))
     assert np.linalg.norm(warm.t - cold.t) < bound * t_sd, (np.linalg.norm(warm.t - cold.t), t_sd)
     assert rotation_angle_deg(warm.R @ R_gt.T) < 1.0
+
+
+def test_a_views_families_fitted_together_are_each_family_s_own():
+    """``fit_view_families`` fits every line's plane of every family of a central view in one batch:
+    each family's estimate is, to the bit, the one it gets fitted alone (``keys=[family]``), and a
+    family of one line fails as it fails alone."""
+    from catadioptric.pose.families import fit_view_families
+
+    va = _pair("hyperboloid_central", noise=1.0)[0]
+    lone = int(np.max(va.family)) + 1
+    view = ViewLines(va.cam, [*va.uv, va.uv[0]], [*va.family, lone], [*va.line_id, -1])
+    together, failed = fit_view_families(view, seed=3)
+    assert len(together) >= 3 and set(failed) == {lone}
+    for key, est in together.items():
+        alone, none = fit_view_families(view, keys=[key], seed=3)
+        assert not none and alone[key].lines == est.lines
+        for field in ("direction", "cov", "normals", "normal_covs"):
+            np.testing.assert_array_equal(getattr(alone[key], field), getattr(est, field))
+        for a, b in zip(alone[key].inliers, est.inliers):
+            np.testing.assert_array_equal(a, b)
+    assert failed[lone] == fit_view_families(view, keys=[lone], seed=3)[1][lone]
+    assert "at least 2 lines" in failed[lone]
+
+
+def test_the_arcs_of_a_familys_lines_come_from_each_line_s_own_rays():
+    """``rotation_twins`` back-projects a family's inlier pixels in one call: each line's rays are, to
+    the bit, those of its own pixels back-projected alone (the rays that see the world only)."""
+    from catadioptric.pose.central import _arc_rays
+    from catadioptric.pose.families import fit_view_families
+
+    va = _pair("hyperboloid_central", noise=1.0)[0]
+    est, _ = fit_view_families(va, seed=0)
+    for e in est.values():
+        rays = _arc_rays(va, e)
+        assert len(rays) == len(e.lines) >= 2
+        for d, line, inl in zip(rays, e.lines, e.inliers):
+            r = va.cam.backproject(va.uv[line][inl])
+            assert 0 < len(d) and np.array_equal(d, r.directions[r.valid])

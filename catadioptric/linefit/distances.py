@@ -102,17 +102,15 @@ class Pixels:
 
 def pixels_with_rays(cam, uv) -> Pixels:
     """The pixels ``uv`` with their rays and the rays' derivatives (:class:`Pixels`), and the mask of valid rays."""
-    rays = cam.backproject(uv)
+    uv_f = np.asarray(uv, dtype=float)
     h = 0.25
-    Jo = np.empty(uv.shape[:-1] + (3, 2))
-    Jd = np.empty(uv.shape[:-1] + (3, 2))
-    for k in range(2):
-        e = np.zeros(2)
-        e[k] = h
-        rp, rm = cam.backproject(uv + e), cam.backproject(uv - e)
-        Jo[..., k] = (rp.origins - rm.origins) / (2 * h)
-        Jd[..., k] = (rp.directions - rm.directions) / (2 * h)
-    return Pixels(uv, rays.origins, rays.directions, Jo, Jd), rays.valid
+    e = np.array([[0.0, 0.0], [h, 0.0], [-h, 0.0], [0.0, h], [0.0, -h]])
+    # the pixel and its four neighbours in one back-projection (each row's ray is the one it gets alone)
+    r = cam.backproject(uv_f[None] + e.reshape((5,) + (1,) * (uv_f.ndim - 1) + (2,)))
+    o, d = r.origins, r.directions
+    Jo = np.stack([(o[1] - o[2]) / (2 * h), (o[3] - o[4]) / (2 * h)], axis=-1)
+    Jd = np.stack([(d[1] - d[2]) / (2 * h), (d[3] - d[4]) / (2 * h)], axis=-1)
+    return Pixels(uv, o[0], d[0], Jo, Jd), r.valid[0]
 
 
 def linear_distances(px: Pixels, L):

@@ -119,8 +119,11 @@ def refine_planes(rays, line, mask, G, lines=None, iters: int = 50, tol: float =
     for _ in range(iters):
         if not active.any():
             break
-        dw = d * w[:, None]
-        S = np.stack([np.bincount(line, dw[:, a] * d[:, b], G) for a in range(3) for b in range(3)], 1).reshape(G, 3, 3)
+        # the sums over the rays of the lines still moving (a bin's sum runs in the rays' order either way)
+        sel = active[line]
+        ds, ls = d[sel], line[sel]
+        dw = ds * w[sel][:, None]
+        S = np.stack([np.bincount(ls, dw[:, a] * ds[:, b], G) for a in range(3) for b in range(3)], 1).reshape(G, 3, 3)
         n_new = np.linalg.eigh(S[active])[1][:, :, 0]
         if not first:
             n_new = np.where((np.sum(n_new * n[active], axis=1) < 0)[:, None], -n_new, n_new)

@@ -22,6 +22,7 @@ on both halves, which orients it and rejects many pairs at once.
 """
 from __future__ import annotations
 
+import functools
 import weakref
 from dataclasses import dataclass
 
@@ -213,10 +214,15 @@ def _cheirality_violation(p, q, T):
     ``min(theta_p + theta_q, 2 pi - theta_p - theta_q)``. Unlike a test of the depths' signs, the
     violation is an angle: it is compared with the rays' noise, so that rays nearly parallel (far
     points) vote only as far as their parallax is measurable, never as a blanket exemption."""
-    cp, cq = T @ p.T, T @ q.T
+    return _violation_of(T @ p.T, T @ q.T, np.sum(p * q, axis=-1)[None, :])
+
+
+def _violation_of(cp, cq, pq):
+    """:func:`_cheirality_violation` from the cosines ``cp = T.p``, ``cq = T.q`` and ``pq = p.q``
+    (arrays that broadcast together; elementwise, so any subset of them gives its own values)."""
     th_p, th_q = np.arccos(np.clip(cp, -1.0, 1.0)), np.arccos(np.clip(cq, -1.0, 1.0))
     # same side of the baseline: (T x p) . (T x q) = p.q - (T.p)(T.q) > 0
-    same = np.sum(p * q, axis=-1)[None, :] - cp * cq >= 0
+    same = pq - cp * cq >= 0
     return np.where(same, np.maximum(th_q - th_p, 0.0), np.minimum(th_p + th_q, 2 * np.pi - th_p - th_q))
 
 
@@ -238,7 +244,12 @@ def truncated_residuals2(A, p, q, T, thr, c2, W=None, ang=None, min_parallax=Non
     for the rays that are not inliers, and the inlier masks ``(H, K)``."""
     r2 = residuals2(A, T, thr, W)
     if min_parallax is None:
-        ahead = _cheirality_violation(p, q, T) <= (thr if W is None else 3.0 * ang)
+        # the violation only where the residual passes (elementwise: the same values as over all)
+        at = np.flatnonzero(r2 <= c2)
+        k = at % r2.shape[1]  # each entry's ray
+        cp, cq = (T @ p.T).ravel()[at], (T @ q.T).ravel()[at]
+        ahead = np.zeros(r2.shape, dtype=bool)
+        ahead.ravel()[at] = _violation_of(cp, cq, np.sum(p * q, axis=-1)[k]) <= (thr if W is None else 3.0 * ang[k])
     else:
         both, pq = _both_ahead(p, q, T)
         ahead = both | (pq > np.cos(min_parallax))[None, :]
@@ -268,6 +279,20 @@ def residual_weights(p, q, cov_p, cov_q, floor):
     return W, ang
 
 
+@functools.lru_cache(maxsize=16)
+def _pair_samples(seed, trials: int, n: int, usable: bytes) -> np.ndarray:
+    """``trials`` pairs ``(trials, 2)`` of distinct usable rays (``usable``: their indices' bytes, of
+    ``n``), drawn from ``seed``; the same draws for the same arguments, kept (read-only) for the next
+    call: a pose's rotation candidates ask for them again with the same rays."""
+    P = _draw_pairs(np.random.default_rng(seed), np.frombuffer(usable, dtype=np.intp), trials)
+    P.flags.writeable = False
+    return P
+
+
+def _draw_pairs(rng, idx, trials):
+    return np.array([rng.choice(idx, 2, replace=False) for _ in range(trials)])
+
+
 def translation_direction_from_crossings(rays: MeetingRays | None, R, *, sigma_px: float = 1.0, seed: int = 0,
                                          trials: int = 300, c2: float = 9.0) -> CrossingFit | None:
     """The displacement direction between the centres of two views, given ``R``, from the rays
@@ -292,9 +317,13 @@ def translation_direction_from_crossings(rays: MeetingRays | None, R, *, sigma_p
     W = ang = None
     if rays.cov_a is not None:
         W, ang = residual_weights(p, q, R @ rays.cov_a @ R.T, rays.cov_b, 0.1 * thr / 3.0)
-    rng = np.random.default_rng(seed)
     idx = np.flatnonzero(use)
-    P = np.array([rng.choice(idx, 2, replace=False) for _ in range(trials)]) if len(idx) > 2 else idx[None]
+    if len(idx) <= 2:
+        P = idx[None]
+    elif isinstance(seed, (int, np.integer)):
+        P = _pair_samples(int(seed), trials, len(use), idx.tobytes())
+    else:
+        P = _draw_pairs(np.random.default_rng(seed), idx, trials)
     T = np.cross(A[P[:, 0]], A[P[:, 1]])
     nt = np.linalg.norm(T, axis=1)
     T = T[nt > 1e-9] / nt[nt > 1e-9, None]
@@ -412,7 +441,8 @@ def rotation_twins(view_a, view_b, ea, eb, keys, R, *, chi2_max: float = 9.21, f
         CB = B.normal_covs if B.normal_covs is not None else np.zeros((len(B.lines), 3, 3))
         var_a = 0.5 * np.trace(CA, axis1=1, axis2=2)
         var_b = 0.5 * np.trace(CB, axis1=1, axis2=2)
-        arcs_b = [_arc(view_b, B, m, B.normals[m]) for m in range(len(B.lines))]
+        arcs_b = [_arc(d, B.normals[m]) for m, d in enumerate(_arc_rays(view_b, B))]
+        rays_a = None  # A's lines back-projected once, when the first is tried
         used = set()
         for i in np.argsort(ang.min(axis=1)):
             var = var_a[i] + var_b + floor_rad**2
@@ -420,7 +450,9 @@ def rotation_twins(view_a, view_b, ea, eb, keys, R, *, chi2_max: float = 9.21, f
             for m in ok[np.argsort(ang[i, ok])]:
                 if m in used:
                     continue
-                ra = _arc(view_a, A, i, B.normals[m], R)
+                if rays_a is None:
+                    rays_a = _arc_rays(view_a, A)
+                ra = _arc(rays_a[i], B.normals[m], R)
                 if ra is not None and arcs_b[m] is not None and arc_overlap(ra, arcs_b[m]) >= overlap:
                     pairs.append((k, A.lines[i], B.lines[m]))
                     used.add(m)
@@ -428,12 +460,18 @@ def rotation_twins(view_a, view_b, ea, eb, keys, R, *, chi2_max: float = 9.21, f
     return Twins(pairs, tested)
 
 
-def _arc(view, est, k, n, R=None):
-    """The interval of angles ``(lo, hi)`` that line ``k`` of ``est`` covers on the great circle of
-    the plane with normal ``n`` (its rays rotated by ``R`` first), or None."""
-    line = est.lines[k]
-    r = view.cam.backproject(view.uv[line][est.inliers[k]])
-    d = r.directions[r.valid]
+def _arc_rays(view, est):
+    """Per line of ``est``, the directions ``(M_k, 3)`` of the rays of its inlier pixels that see the
+    world (one back-projection for all: each row's ray is the one it gets alone)."""
+    uvs = [view.uv[line][inl] for line, inl in zip(est.lines, est.inliers)]
+    r = view.cam.backproject(np.concatenate(uvs) if uvs else np.zeros((0, 2)))
+    cuts = np.cumsum([len(u) for u in uvs])[:-1]
+    return [d[ok] for d, ok in zip(np.split(r.directions, cuts), np.split(r.valid, cuts))]
+
+
+def _arc(d, n, R=None):
+    """The interval of angles ``(lo, hi)`` that a line's rays ``d`` (:func:`_arc_rays`) cover on the
+    great circle of the plane with normal ``n`` (rotated by ``R`` first), or None."""
     if len(d) < 2:
         return None
     return arc_on_plane(d if R is None else d @ R.T, n)

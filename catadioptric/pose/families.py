@@ -111,12 +111,53 @@ def _model_cov(n, model_error_rad):
     return model_error_rad**2 * (np.eye(3) - np.outer(n, n))
 
 
-def _fit_central(cam, uv_sets, seed, f_scale, pixel_sigma, directions_only=False, model_error_rad=0.0):
-    from ..linefit import direction_from_planes, fit_interpretation_planes
+def _view_planes(cam, sets_by_key, seed, f_scale, pixel_sigma, directions_only):
+    """Every line's interpretation plane of every family at once (one back-projection, one batch of
+    fits; each line's answer is the one it gets alone: :func:`~catadioptric.linefit.fit_interpretation_planes`):
+    ``{key: (planes, failures)}`` as that function returns them for the family's own lines, or the
+    error it raises for them (a family of one line is fitted alone: its line's error is the family's)."""
+    from ..linefit import fit_interpretation_planes
 
-    # every line's plane at once (one back-projection of the family's pixels, one batch of fits)
-    fits, dropped = fit_interpretation_planes(cam, uv_sets, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
-                                              directions_only=directions_only)
+    if isinstance(seed, np.random.Generator):  # one draw after another, in the families' order
+        return {k: _family_planes(cam, v, seed, f_scale, pixel_sigma, directions_only) for k, v in sets_by_key.items()}
+    out = {k: _family_planes(cam, v, seed, f_scale, pixel_sigma, directions_only)
+           for k, v in sets_by_key.items() if len(v) < 2}
+    keys = [k for k in sets_by_key if k not in out]
+    if not keys:
+        return out
+    flat = [uv for k in keys for uv in sets_by_key[k]]
+    try:
+        fits, failures = fit_interpretation_planes(cam, flat, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
+                                                   directions_only=directions_only)
+    except CatadioptricError as exc:
+        return out | {k: exc for k in keys}
+    start = 0
+    for k in keys:
+        n = len(sets_by_key[k])
+        out[k] = ({i - start: fits[i] for i in range(start, start + n) if i in fits},
+                  {i - start: failures[i] for i in range(start, start + n) if i in failures})
+        start += n
+    return out
+
+
+def _family_planes(cam, uv_sets, seed, f_scale, pixel_sigma, directions_only):
+    from ..linefit import fit_interpretation_planes
+
+    try:
+        return fit_interpretation_planes(cam, uv_sets, seed=seed, f_scale=f_scale, pixel_sigma=pixel_sigma,
+                                         directions_only=directions_only)
+    except CatadioptricError as exc:
+        return exc
+
+
+def _fit_central(fitted, model_error_rad=0.0):
+    """A family's direction from its lines' planes ``fitted`` (``(planes, failures)`` of
+    :func:`_view_planes`, or the error that fitting its one line raised)."""
+    from ..linefit import direction_from_planes
+
+    if isinstance(fitted, CatadioptricError):
+        raise fitted
+    fits, dropped = fitted
     keep = sorted(fits)
     planes = [fits[i] for i in keep]
     if len(planes) < 2:
@@ -166,15 +207,15 @@ def fit_view_families(view: ViewLines, *, keys=None, seed=0, f_scale: float = 1.
         per_px = rad_per_px(view.cam)
         model_error_rad = float(model_error_px) * per_px
         floor_deg = float(np.degrees(float(calibration_rms_px) * per_px))
-    for key in (fams if keys is None else [k for k in keys if k in fams]):
-        idx = fams[key]
-        picks = [_spread(len(view.uv[i]), max_pixels) for i in idx]
-        sets = [view.uv[i][p] for i, p in zip(idx, picks)]
+    todo = list(fams if keys is None else [k for k in keys if k in fams])
+    picks_of = {key: [_spread(len(view.uv[i]), max_pixels) for i in fams[key]] for key in todo}
+    sets_of = {key: [view.uv[i][p] for i, p in zip(fams[key], picks_of[key])] for key in todo}
+    fitted = _view_planes(view.cam, sets_of, seed, f_scale, pixel_sigma, not central) if planes_only else {}
+    for key in todo:
+        idx, picks, sets = fams[key], picks_of[key], sets_of[key]
         try:
             if planes_only:
-                planes, s, cov, keep, dropped, ncov = _fit_central(view.cam, sets, seed, f_scale, pixel_sigma,
-                                                                   directions_only=not central,
-                                                                   model_error_rad=model_error_rad)
+                planes, s, cov, keep, dropped, ncov = _fit_central(fitted[key], model_error_rad=model_error_rad)
                 normals = np.array([p.normal for p in planes])
                 rho = rho_sd = np.full(len(keep), np.nan)
                 pl = np.full((len(keep), 6), np.nan)
