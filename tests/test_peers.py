@@ -160,3 +160,33 @@ def test_without_poselib_the_extra_is_named_and_nothing_written(tmp_path):
     assert p.stderr.strip() == ("catadioptric: error: catadioptric validate peers needs poselib (extra 'peers'): pip install "
                                 "'catadioptric[peers]'")
     assert not out.exists()
+
+
+def test_the_label_path_is_set_against_each_peer_that_ran_pair_by_pair():
+    """``versus_peers`` compares the label path's rotation errors with each peer's over the same pairs
+    (per noise level), leaves out a peer skipped on every draw (the generalized one on a central rig)
+    and counts an ambiguous label draw (no error) as missing."""
+    from catadioptric.validate.benchmark_report import median_difference_interval
+    from catadioptric.validate.peers import versus_peers
+
+    rng = np.random.default_rng(2)
+
+    def pair(scale_label, skip_generalized=False):
+        draws = []
+        for k in range(3):
+            e = float(rng.lognormal(np.log(0.2), 0.2))
+            draws.append({"noise_px": 2.0, "draw": k,
+                          "central": {"rotation_error_deg": e},
+                          "generalized": {"skipped": "central rig"} if skip_generalized else {"rotation_error_deg": 2 * e},
+                          "label_path": {"rotation_error_deg": None if k == 2 else scale_label * e}})
+        return {"draws": draws}
+
+    pairs = [pair(0.5) for _ in range(12)]
+    v = versus_peers(pairs)["2"]
+    assert set(v) == {"central", "generalized"} and v["central"]["pairs"] == 12
+    assert v["central"]["verdict"] == "lower" and v["generalized"]["verdict"] == "lower"
+    lab = [[d["label_path"]["rotation_error_deg"] for d in p["draws"]] for p in pairs]
+    cen = [[d["central"]["rotation_error_deg"] for d in p["draws"]] for p in pairs]
+    assert v["central"] == median_difference_interval(lab, cen)
+    central_rig = versus_peers([pair(3.0, skip_generalized=True) for _ in range(12)])["2"]
+    assert set(central_rig) == {"central"} and central_rig["central"]["verdict"] == "higher"

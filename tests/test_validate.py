@@ -360,6 +360,36 @@ def test_the_medians_interval_resamples_pairs_not_draws():
     assert median_interval([[None]])["median"] is None
 
 
+def test_two_methods_medians_are_told_apart_by_resampling_pairs():
+    """``median_difference_interval``: the difference of two methods' medians on the same pairs, its
+    interval from resampling pairs with both methods' draws on them: half the errors is "lower", the
+    same values "unresolved" (difference 0), 2 % more on every draw "higher" (the pairs are shared),
+    other draws of the same spread "unresolved"; pairs one method has no value on are left out; seeded."""
+    from catadioptric.validate.benchmark_report import median_difference_interval
+
+    rng = np.random.default_rng(3)
+    base = [list(rng.lognormal(np.log(0.2) + rng.normal(0, 0.3), 0.3, 3)) for _ in range(20)]
+    same = median_difference_interval(base, base)
+    assert same["difference"] == 0.0 and same["lo"] <= 0.0 <= same["hi"] and same["verdict"] == "unresolved"
+    half = [[0.5 * v for v in g] for g in base]
+    d = median_difference_interval(half, base)
+    everything = np.concatenate(base)
+    assert d["difference"] == pytest.approx(-0.5 * np.median(everything), rel=1e-12)
+    assert d["verdict"] == "lower" and d["hi"] < 0 and d["lo"] < d["difference"] < d["hi"]
+    assert median_difference_interval(base, half)["verdict"] == "higher"
+    # both methods on the same pairs: 2 % more on every draw is told (the pairs' own spread cancels) ...
+    assert median_difference_interval([[1.02 * v for v in g] for g in base], base)["verdict"] == "higher"
+    # ... draws of the same spread on the same pairs are not
+    again = [list(np.median(g) * rng.lognormal(0.0, 0.3, 3)) for g in base]
+    assert median_difference_interval(again, base)["verdict"] == "unresolved"
+    missing = median_difference_interval(half + [[None]], base + [[0.1]])
+    assert missing == d and missing["pairs"] == 20
+    assert median_difference_interval(half, base) == d
+    assert median_difference_interval([[None]], [[1.0]])["verdict"] is None
+    with pytest.raises(ValueError):
+        median_difference_interval(half, base[:-1])
+
+
 def test_the_angle_of_a_zero_translation_is_nan_without_a_warning():
     """A translation found zero (a camera turned in place) has no direction to compare: nan, and no
     RuntimeWarning in the benchmark's output."""

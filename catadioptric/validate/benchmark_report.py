@@ -13,7 +13,7 @@ from ..linefit._common import HALF_NORMAL_MEDIAN as _HALF_NORMAL_MEDIAN
 from .benchmark_spec import quality_text
 
 __all__ = ["aggregate", "aggregate_images", "write_benchmark_report", "write_images_report", "benchmark_markdown",
-           "images_markdown", "median_interval"]
+           "images_markdown", "median_interval", "median_difference_interval"]
 
 PAPER_FROBENIUS_2PX = 0.0446  # Miraldo, Eiras, Ramalingam, CVPR 2018, Sec. 5.4 (one POV-Ray pair, 2 px)
 
@@ -42,6 +42,34 @@ def median_interval(per_pair, *, level: float = 0.95, n_boot: int = 2000, seed: 
     lo, hi = np.percentile(meds, [50.0 * (1.0 - level), 50.0 * (1.0 + level)])
     return {"median": float(np.median(np.concatenate(groups))), "lo": float(lo), "hi": float(hi),
             "pairs": len(groups)}
+
+
+def median_difference_interval(per_pair_a, per_pair_b, *, level: float = 0.95, n_boot: int = 2000,
+                               seed: int = 0) -> dict:
+    """The difference of two methods' medians on the same pairs, ``median(a) - median(b)`` over every
+    value of ``per_pair_a`` and of ``per_pair_b`` (one sequence of values per pair, the pairs in the
+    same order; None or nan: missing), and its percentile bootstrap interval at ``level``, resampling
+    *pairs* with all the values both methods have on them (as :func:`median_interval`: the pairs are
+    what is drawn from the world; the two methods see the same pairs). ``verdict``: ``"lower"`` when
+    the interval lies below 0, ``"higher"`` above, ``"unresolved"`` when it holds 0.
+    ``{"difference", "lo", "hi", "pairs", "verdict"}`` (None without values)."""
+    def clean(g):
+        return np.asarray([v for v in g if v is not None and np.isfinite(v)], float)
+
+    both = [(clean(a), clean(b)) for a, b in zip(per_pair_a, per_pair_b, strict=True)]
+    both = [(a, b) for a, b in both if len(a) and len(b)]
+    if not both:
+        return {"difference": None, "lo": None, "hi": None, "pairs": 0, "verdict": None}
+
+    def diff(idx):
+        return float(np.median(np.concatenate([both[i][0] for i in idx]))
+                     - np.median(np.concatenate([both[i][1] for i in idx])))
+
+    rng = np.random.default_rng(seed)
+    boots = np.array([diff(rng.integers(0, len(both), len(both))) for _ in range(n_boot)])
+    lo, hi = (float(x) for x in np.percentile(boots, [50.0 * (1.0 - level), 50.0 * (1.0 + level)]))
+    verdict = "lower" if hi < 0 else "higher" if lo > 0 else "unresolved"
+    return {"difference": diff(range(len(both))), "lo": lo, "hi": hi, "pairs": len(both), "verdict": verdict}
 
 
 def _model_rows(draws, key):

@@ -51,7 +51,7 @@ from .._checks import CatadioptricError
 
 __all__ = ["PointPairs", "point_pairs", "PeerFit", "ransac", "central_peer", "generalized_peer", "evaluate_peers",
            "summarise", "evaluate_benchmark_peers", "threshold_px", "require_poselib", "methods_of", "SPACING_PX", "THRESHOLD_FLOOR_PX",
-           "THRESHOLD_SIGMAS", "PEERS"]
+           "THRESHOLD_SIGMAS", "PEERS", "versus_peers"]
 
 #: spacing of the points along each line, in pixels of arc (the mean of the two views'): 430 points
 #: on the demo pair (urban_street, views A and B), as many as issue 41 measured the peers on
@@ -477,6 +477,31 @@ def summarise(draws: list, methods=PEERS) -> dict:
     return out
 
 
+def versus_peers(pairs: list) -> dict:
+    """The label path's rotation error against each peer's on the same pairs (``pairs``: results of
+    :func:`evaluate_peers` with the label path), per noise level (``"2"``) and peer: the difference
+    of their medians, label path minus peer (degrees), with its 95 % bootstrap interval resampling
+    the pairs (:func:`catadioptric.validate.benchmark_report.median_difference_interval`); ``verdict``
+    ``"lower"``: the label path's median error is below the peer's beyond the pairs' chance,
+    ``"higher"``: above, ``"unresolved"``: the pairs do not tell. Peers that did not run (skipped) are
+    left out."""
+    from .benchmark_report import median_difference_interval
+
+    def errors(r, noise, m):
+        return [d[m].get("rotation_error_deg") for d in r["draws"] if d["noise_px"] == noise and m in d]
+
+    out = {}
+    for noise in sorted({d["noise_px"] for r in pairs for d in r["draws"]}):
+        row = {}
+        for m in PEERS:
+            if all("skipped" in d.get(m, {"skipped": 1}) for r in pairs for d in r["draws"]):
+                continue
+            row[m] = median_difference_interval([errors(r, noise, "label_path") for r in pairs],
+                                                [errors(r, noise, m) for r in pairs])
+        out[f"{noise:g}"] = row
+    return out
+
+
 # --------------------------------------------------------------------------- the benchmark's pairs
 def _pair_task(item):
     key, folder, names, kw = item
@@ -529,6 +554,8 @@ def evaluate_benchmark_peers(spec: dict, data: str, *, only=None, workers: int =
                                   "points": [float(x) for x in np.quantile([r["points"]["count"] for r in mine],
                                                                            [0.5, 0.25, 0.75])],
                                   "summary": summarise([d for r in mine for d in r["draws"]], methods)}
+            if kw.get("label_path"):
+                configs[c["name"]]["versus"] = versus_peers(mine)
     return {"spec": spec["name"], "resolution": spec["resolution"], "seed": spec["seed"],
             "pairs_chosen": [f"{c['name']}:{p.index}" for c, p in chosen], "label_path": bool(kw.get("label_path")),
             "workers": workers, "seconds": time.perf_counter() - t0, "configs": configs, "pairs": pairs}

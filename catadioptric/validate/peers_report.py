@@ -133,6 +133,27 @@ def _generalized_notes(summary: dict, draws: list, where: str = "") -> list[str]
     return [" ".join(out), ""] if out else []
 
 
+_VERDICT = {"lower": "the label path's lower", "higher": "the peer's lower", "unresolved": "not told apart"}
+
+
+def _versus_rows(res: dict) -> list[str]:
+    """The table of :func:`~catadioptric.validate.peers.versus_peers` per configuration (none without
+    the label path)."""
+    from .report import md_table
+
+    rows = [[name, noise, _NAME[m], f"{_f(v['difference'])} [{_f(v['lo'])}, {_f(v['hi'])}]", v["pairs"],
+             _VERDICT[v["verdict"]]]
+            for name, c in res["configs"].items() for noise, row in c.get("versus", {}).items()
+            for m, v in row.items() if v["pairs"]]
+    if not rows:
+        return []
+    return ["The label path's median rotation error against each peer's on the same pairs: label path minus peer "
+            "(degrees; negative: the label path's is lower) and its 95 % bootstrap interval, resampling the pairs "
+            "with all their draws; the medians are told apart when the interval does not hold 0:", "",
+            md_table(["configuration", "noise (px)", "peer", "difference (deg) [95 % interval]", "pairs",
+                      "median error"], rows), ""]
+
+
 def benchmark_peers_markdown(res: dict, command: str) -> str:
     """The Markdown report of :func:`evaluate_benchmark_peers`."""
     from .report import md_table
@@ -152,6 +173,7 @@ def benchmark_peers_markdown(res: dict, command: str) -> str:
                              _mq(q["length_ratio"]) if m == "generalized" else "-", _mq(q["seconds"], ".2f")])
         notes += _generalized_notes(c["summary"], [d for r in res["pairs"] if r["config"] == name
                                                    for d in r["draws"]], f" on {name}")
+    versus = _versus_rows(res)
     per_pair = []
     for r in res["pairs"]:
         for noise, row in r["summary"].items():
@@ -173,6 +195,7 @@ def benchmark_peers_markdown(res: dict, command: str) -> str:
          md_table(["configuration", "noise (px)", "method", "answered", "rotation (deg)",
                    "translation direction (deg)", "length ratio", "seconds"], rows), "",
          *notes,
+         *versus,
          "Per pair, the median rotation error (deg) and seconds over its draws:", "",
          md_table(["pair", "renderer", "baseline (m)", "points", "noise (px)", *[_NAME[m] for m in methods]],
                   per_pair), "",
