@@ -98,10 +98,10 @@ def test_the_crossing_fits_pairs_are_drawn_once_per_seed_and_rays():
     from catadioptric.pose.central import _pair_samples
 
     idx = np.array([0, 2, 3, 5, 8, 9], dtype=np.intp)
-    P = _pair_samples(7, 300, 10, idx.tobytes())
+    P = _pair_samples(7, 300, idx.tobytes())
     rng = np.random.default_rng(7)
     expected = np.array([rng.choice(idx, 2, replace=False) for _ in range(300)])
     assert np.array_equal(P, expected) and np.all(P[:, 0] != P[:, 1]) and np.isin(P, idx).all()
-    assert _pair_samples(7, 300, 10, idx.tobytes()) is P and not P.flags.writeable
-    assert not np.array_equal(_pair_samples(8, 300, 10, idx.tobytes()), P)
-    assert np.isin(_pair_samples(7, 300, 10, idx[1:].tobytes()), idx[1:]).all()
+    assert _pair_samples(7, 300, idx.tobytes()) is P and not P.flags.writeable
+    assert not np.array_equal(_pair_samples(8, 300, idx.tobytes()), P)
+    assert np.isin(_pair_samples(7, 300, idx[1:].tobytes()), idx[1:]).all()

@@ -280,9 +280,9 @@ def residual_weights(p, q, cov_p, cov_q, floor):
 
 
 @functools.lru_cache(maxsize=16)
-def _pair_samples(seed, trials: int, n: int, usable: bytes) -> np.ndarray:
-    """``trials`` pairs ``(trials, 2)`` of distinct usable rays (``usable``: their indices' bytes, of
-    ``n``), drawn from ``seed``; the same draws for the same arguments, kept (read-only) for the next
+def _pair_samples(seed, trials: int, usable: bytes) -> np.ndarray:
+    """``trials`` pairs ``(trials, 2)`` of distinct usable rays (``usable``: their indices' bytes),
+    drawn from ``seed``; the same draws for the same arguments, kept (read-only) for the next
     call: a pose's rotation candidates ask for them again with the same rays."""
     P = _draw_pairs(np.random.default_rng(seed), np.frombuffer(usable, dtype=np.intp), trials)
     P.flags.writeable = False
@@ -321,7 +321,7 @@ def translation_direction_from_crossings(rays: MeetingRays | None, R, *, sigma_p
     if len(idx) <= 2:
         P = idx[None]
     elif isinstance(seed, (int, np.integer)):
-        P = _pair_samples(int(seed), trials, len(use), idx.tobytes())
+        P = _pair_samples(int(seed), trials, idx.tobytes())
     else:
         P = _draw_pairs(np.random.default_rng(seed), idx, trials)
     T = np.cross(A[P[:, 0]], A[P[:, 1]])
