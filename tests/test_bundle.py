@@ -127,6 +127,7 @@ def test_a_step_against_a_bound_is_the_step_on_the_bound():
     y = pb.start()
     i0 = 7 + 2 * pb.F  # rho~ of line 0
     assert np.isclose(y[i0], np.exp(y[5]) / pb.d_min)
+    y[i0 + 2] = 10.0  # line 1 well inside its bounds: these steps do not carry it past rho_min
     rng = np.random.default_rng(7)
     pushed = free = 0
     for _ in range(60):
@@ -153,6 +154,45 @@ def test_a_step_against_a_bound_is_the_step_on_the_bound():
     assert pushed >= 10 and free >= 10
 
 
+def test_a_step_that_carries_a_line_past_infinity_puts_it_on_its_bound():
+    """A step that would carry a line's inverse distance below ``rho_min`` (the line pulled beyond
+    infinity) is the minimiser of the same quadratic model with that line moved exactly onto
+    ``rho_min`` (KKT, solved here); a step that leaves it above is the free one. The step used to
+    be clipped by ``apply``, rejected, and shrunk until it stopped short of the bound, again and
+    again (the sphere's refinements ran to their cap of 50 steps)."""
+    from catadioptric.pose.bundle import _normal_equations, _solve_step
+
+    pb = _line_at_the_mirror()
+    y = pb.start()
+    y[7 + 2 * pb.F] *= 0.5  # line 0 off its nearest bound
+    i1 = 7 + 2 * pb.F + 2  # rho~ of line 1, a little above rho_min
+    y[i1] = 50.0 * pb.rho_min
+    rng = np.random.default_rng(9)
+    onto = free = 0
+    for _ in range(60):
+        A = rng.normal(size=(pb.N, 2, 10))
+        b = rng.normal(size=(pb.N, 2))
+        e = rng.normal(size=(pb.N, 2))
+        w = rng.uniform(0.5, 1.0, pb.N)
+        mu = np.zeros(pb.N)
+        S, g, Hym, gm, Hmm_d = _normal_equations(pb, A, b, e, w, 0.0)
+        dy_free = np.linalg.solve(S, -g)
+        dy, dmu = _solve_step(pb, A, b, e, w, 0.0, y, mu)
+        if y[i1] + dy_free[i1] < pb.rho_min:
+            C = np.zeros((1, pb.ny))
+            C[0, i1] = 1.0
+            K = np.block([[S, C.T], [C, np.zeros((1, 1))]])
+            ref = np.linalg.solve(K, np.r_[-g, pb.rho_min - y[i1]])[:pb.ny]
+            assert np.allclose(dy, ref, rtol=1e-7, atol=1e-9 * np.abs(ref).max())
+            assert np.isclose(y[i1] + dy[i1], pb.rho_min, rtol=1e-9, atol=0.0)
+            onto += 1
+        else:
+            assert np.allclose(dy, dy_free, rtol=1e-7, atol=1e-9 * np.abs(dy_free).max())
+            free += 1
+        assert np.allclose(dmu, -(gm + np.sum(Hym * dy[pb.cols], axis=1)) / Hmm_d)
+    assert onto >= 10 and free >= 10
+
+
 def test_a_depth_at_its_limit_is_held():
     """A pixel whose depth is at +-MU_MAX (its point at a vanishing point) and whose step would
     take it further keeps its depth; the step is that of the system without its depth."""
@@ -162,6 +202,7 @@ def test_a_depth_at_its_limit_is_held():
     pb = _line_at_the_mirror()
     y = pb.start()
     y[7 + 2 * pb.F] *= 0.5  # line 0 off its bound: only the depth is held
+    y[7 + 2 * pb.F + 2] = 10.0  # line 1 well inside its bounds, as line 0
     rng = np.random.default_rng(8)
     held = 0
     for _ in range(40):

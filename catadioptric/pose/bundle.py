@@ -184,8 +184,11 @@ def _solve_step(pb, A, b, e, w, lam, y, mu, hold_scale=False, extra=(None, None)
     bounds (:meth:`~catadioptric.pose.two_view_problem.Problem.pushed_bounds`; a depth at ``+-MU_MAX`` pushed outwards) are held on
     them and the step solved again, until it pushes against no other: moved across and clipped
     back by :meth:`~catadioptric.pose.two_view_problem.Problem.apply`, they would leave the rest of the step inconsistent, and
-    Levenberg-Marquardt would crawl. ``hold_scale``: the scene's scale (``sigma``) is held from
-    the start."""
+    Levenberg-Marquardt would crawl. A line the step carries past ``rho_min`` (beyond infinity:
+    its pixels pull it to the other side) is moved onto that bound and the rest of the step solved
+    with it there; rejected, such a step used to shrink until it stopped short of the bound, and
+    the next pushed again (the sphere's refinements ran to their cap; validate/NOTES.md,
+    2026-11-29 (late)). ``hold_scale``: the scene's scale (``sigma``) is held from the start."""
     Sc, gc = extra
     S, g, Hym, gm, Hmm_d = _normal_equations(pb, A, b, e, w, lam)
     if Sc is not None:
@@ -195,8 +198,13 @@ def _solve_step(pb, A, b, e, w, lam, y, mu, hold_scale=False, extra=(None, None)
     dy = _damped_solve(S, g, lam) if T is None else T @ _damped_solve(T.T @ S @ T, T.T @ g, lam)
     dmu = -(gm + np.sum(Hym * dy[pb.cols], axis=1)) / Hmm_d
     stuck = np.zeros(len(mu), dtype=bool)
+    i_rho = 7 + 2 * pb.F + 2 * np.arange(pb.L)
+    onto = np.zeros(pb.ny)  # lines the step carries past rho_min: moved onto it, then held there
     for _ in range(8):
         upper, lower, scale = pb.pushed_bounds(y, dy)
+        past = (y[i_rho] + dy[i_rho] < pb.rho_min) & (y[i_rho] > pb.rho_min * (1 + 1e-9))
+        onto[i_rho[past]] = pb.rho_min - y[i_rho[past]]
+        lower = lower | (onto[i_rho] != 0.0)
         held2 = (held[0] | upper, held[1] | lower, held[2] or scale)
         stuck2 = stuck | ((np.abs(mu) >= MU_MAX * (1 - 1e-12)) & (dmu * mu > 0))
         if all(np.array_equal(p, q) for p, q in zip(held, held2)) and np.array_equal(stuck, stuck2):
@@ -207,7 +215,7 @@ def _solve_step(pb, A, b, e, w, lam, y, mu, hold_scale=False, extra=(None, None)
                 S, g = S + Sc, g + gc
         held, stuck = held2, stuck2
         T = pb.bound_chart(y, held)
-        dy = _damped_solve(S, g, lam) if T is None else T @ _damped_solve(T.T @ S @ T, T.T @ g, lam)
+        dy = _damped_solve(S, g, lam) if T is None else T @ _damped_solve(T.T @ S @ T, T.T @ (g + S @ onto), lam) + onto
         dmu = np.where(stuck, 0.0, -(gm + np.sum(Hym * dy[pb.cols], axis=1)) / Hmm_d)
     return dy, dmu
 
