@@ -1,5 +1,6 @@
 """The scene's scale in the two-view refinement (catadioptric.pose.scale): the free fit where the
 pixels tell the scale, otherwise the fit with the scene held far, scaled to the free fit's length."""
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -26,6 +27,12 @@ def _spy(monkeypatch):
 
     monkeypatch.setattr(scale_mod, "refine_two_view", spy)
     return calls
+
+
+def _free_and_held(calls):
+    """The last refine_far_or_free's two calls, the free one first (the far one runs in a thread of
+    its own and may finish first)."""
+    return sorted(calls[-2:], key=lambda c: c[0].hold_scale)
 
 
 def _length(fit, ca, cb):
@@ -69,7 +76,7 @@ def test_the_far_fit_is_scaled_to_the_free_fit_s_length(monkeypatch):
     res = relative_pose(va, vb)
     fit = res.candidates[0].fit
     assert fit.scale_held and fit.far_gap < -scale_mod.TAU
-    (o_free, free, _, _), (o_held, held, data_held, _) = calls[-2:]
+    (o_free, free, _, _), (o_held, held, data_held, _) = _free_and_held(calls)
     assert o_held.hold_scale and not o_free.hold_scale
     ca, cb = data_held.centres
     assert np.array_equal(fit.R, held.R)
@@ -100,14 +107,14 @@ def test_a_gap_with_the_length_unknown_keeps_the_far_fit(monkeypatch):
     monkeypatch.setattr(scale_mod, "common_gap", lambda *a, **k: 1e6)
     calls = _spy(monkeypatch)
     fit = relative_pose(va, vb).candidates[0].fit
-    (_, free, _, _), (_, held, _, _) = calls[-2:]
+    (_, free, _, _), (_, held, _, _) = _free_and_held(calls)
     assert fit.far_gap == 1e6 and fit.scale_std > 10.0 > 25 * scale_mod.MAX_SCALE_STD
     assert fit.scale_held and np.array_equal(fit.R, held.R)
     real = scale_mod.refine_far_or_free
     monkeypatch.setattr("catadioptric.pose.labelled.refine_far_or_free",
                         lambda data, start, options: real(data, start, replace(options, max_scale_std=1e3)))
     fit = relative_pose(va, vb).candidates[0].fit
-    (_, free, _, _), _ = calls[-2:]
+    (_, free, _, _), _ = _free_and_held(calls)
     assert not fit.scale_held and np.array_equal(fit.R, free.R)
 
 
@@ -122,6 +129,41 @@ def test_the_bar_on_the_length_is_the_gap_s_level():
     assert chi2.sf(scale_mod.TAU, 1) == pytest.approx(0.01, abs=1e-4)
 
 
+def test_the_two_fits_side_by_side_are_the_fits_one_after_the_other(monkeypatch):
+    """``threads=2`` runs the far fit in a thread of its own beside the free one; each fit depends on
+    nothing the other does, so the answer is the same to the bit as with ``threads=1`` (one thread,
+    one after the other). Box scene, hyperbolic rig, 2 px."""
+    import threading
+
+    va, vb, _, _ = _pair("hyperboloid", noise=2.0, seed=4)
+    real = scale_mod.refine_two_view
+    seen = []
+
+    def spy(data, start, options):
+        seen.append((options.hold_scale, threading.get_ident()))
+        return real(data, start, options)
+
+    monkeypatch.setattr(scale_mod, "refine_two_view", spy)
+    answers = {}
+    for threads in (1, 2):
+        seen.clear()
+        res = relative_pose(va, vb, threads=threads)
+        fit = res.candidates[0].fit
+        answers[threads] = (res.R, res.t, res.cov, fit.points, fit.far_gap, fit.scale_std, fit.cost)
+        idents = {held: ident for held, ident in seen}
+        assert sorted(idents) == [False, True]
+        assert (idents[True] != idents[False]) == (threads == 2), (threads, seen)
+    for a, b in zip(answers[1], answers[2]):
+        assert np.array_equal(a, b, equal_nan=True)
+
+
+@pytest.mark.parametrize("threads", [0, 3, 1.0, "2", True])
+def test_threads_other_than_one_or_two_are_named(threads):
+    va, vb, _, _ = _pair("hyperboloid")
+    with pytest.raises(CatadioptricError, match="^threads: expected 1 or 2, got " + re.escape(repr(threads)) + "$"):
+        relative_pose(va, vb, threads=threads)
+
+
 @pytest.mark.parametrize("options, match", [
     (ScaleOptions(far=0.0), r"far: expected a positive number, got 0\.0"),
     (ScaleOptions(tau=-1.0), r"tau: expected a cost difference of at least 0, got -1\.0"),
@@ -129,6 +171,7 @@ def test_the_bar_on_the_length_is_the_gap_s_level():
     (ScaleOptions(refine=TwoViewOptions(hold_scale=True)), "options.refine.hold_scale: set by refine_far_or_free itself"),
     (ScaleOptions(refine=TwoViewOptions(release_scale=0.1)),
      "options.refine.release_scale: set by refine_far_or_free itself"),
+    (ScaleOptions(threads=0), r"threads: expected 1 or 2, got 0"),
 ])
 def test_bad_arguments_are_named(options, match):
     z = np.zeros((3, 3))

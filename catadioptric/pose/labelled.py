@@ -99,6 +99,9 @@ class PoseOptions:
     #: outnumber the lines seen in both views (``ONE_VIEW_LINES_OVER``); the image path sets it
     #: (:func:`_noncentral_candidate`)
     one_view_lines: bool = False
+    #: the free and the far refinement side by side in two threads, or one after the other (1)
+    #: (:attr:`~catadioptric.pose.scale.ScaleOptions.threads`)
+    threads: int = 2
 
     def checked(self) -> PoseOptions:
         """These options with each number checked (a one-line error naming a bad one) and made a float."""
@@ -113,6 +116,8 @@ class PoseOptions:
             if v < 0:
                 raise CatadioptricError(f"{name}: expected a non-negative number of pixels, got {v}")
             ok[name] = v
+        if isinstance(self.threads, bool) or not (isinstance(self.threads, (int, np.integer)) and self.threads in (1, 2)):
+            raise CatadioptricError(f"threads: expected 1 or 2, got {self.threads!r}")
         return replace(self, **ok)
 
 
@@ -420,7 +425,7 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, opts, sigma_c
                        np.concatenate(own_b), line_family=np.array([fam_index[k] for k, _, _ in lines]),
                        centres=(ea[keys[0]].centre, eb[keys[0]].centre), corners=corners, corner_sigma=corner_sigma)
     start = TwoViewStart(R, t0, dirs_a, np.array(pts))
-    options = ScaleOptions(refine=TwoViewOptions(sigma_cost=sigma_cost, pixel_sigma=pixel_sigma))
+    options = ScaleOptions(refine=TwoViewOptions(sigma_cost=sigma_cost, pixel_sigma=pixel_sigma), threads=opts.threads)
     fit = refine_far_or_free(data, start, options)
     return fit, len(matched)
 def _direction_margin(out):

@@ -27,7 +27,7 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
                   pixel_sigma: float | None = None, decisive: float = 25.0, max_pixels: int | None = 40,
                   min_families: int = 2, max_rotation_deg: float | None = None,
                   model_error_px: float = 0.0, decisive_matching: float | None = None,
-                  calibration_rms_px: float = 0.0) -> RelativePose:
+                  calibration_rms_px: float = 0.0, threads: int = 2) -> RelativePose:
     """The relative pose ``x_B = R x_A + t`` of two views from the lines they see.
 
     ``view_a``, ``view_b``: :class:`ViewLines`. ``ends``: ``{family: (hint_a, hint_b)}``, for
@@ -56,7 +56,10 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
     to 29.7 among more, counting the smaller of the matching's margin and its margin by the RANSAC's
     matchings alone, which both must reach the bar (docs/relative_pose.md, "The bar on the matching"). Raises :class:`CatadioptricError` naming the
     cause when fewer than ``min_families`` families are seen in both views, or when no candidate
-    is within ``max_rotation_deg``.
+    is within ``max_rotation_deg``. ``threads``: a non-central rig's two refinements (the scene free
+    and held far, :func:`~catadioptric.pose.scale.refine_far_or_free`) side by side in two threads
+    (the same answers, sooner with a core to spare), or one after the other (1: for a process among
+    others that keep every core busy, as the benchmark's workers).
     """
     from threadpoolctl import threadpool_limits
 
@@ -64,7 +67,7 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
         raise CatadioptricError(f"view_a, view_b: expected ViewLines, got {type(view_a).__name__} and "
                                 f"{type(view_b).__name__}")
     opts = PoseOptions(seed, f_scale, pixel_sigma, decisive, max_pixels, min_families, max_rotation_deg,
-                       model_error_px, decisive_matching, calibration_rms_px).checked()
+                       model_error_px, decisive_matching, calibration_rms_px, threads=threads).checked()
     if is_central(view_a.cam) != is_central(view_b.cam):
         raise CatadioptricError("view_a, view_b: expected two central or two non-central cameras, got one of each")
     unmatched = all(i is None for i in view_a.line_id) or all(i is None for i in view_b.line_id)

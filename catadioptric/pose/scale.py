@@ -22,6 +22,7 @@ degree (docs/relative_pose.md, "The scale: far unless the pixels tell it").
 """
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -53,6 +54,10 @@ class ScaleOptions:
     #: the options of both refinements (:class:`~catadioptric.pose.bundle.TwoViewOptions`); their
     #: ``hold_scale`` and ``release_scale`` are set by :func:`refine_far_or_free` itself
     refine: TwoViewOptions = field(default_factory=TwoViewOptions)
+    #: the two refinements run side by side in this many threads (2; the compiled kernels release
+    #: the GIL): the same answers, sooner on a machine with a core to spare; 1: one after the other,
+    #: for a process among others that already keep every core busy
+    threads: int = 2
 
 
 def scale_by_search(va, vb, lines, dirs, R, t_dir, offset, sigma, n_pixels=12):
@@ -189,7 +194,9 @@ def refine_far_or_free(data: TwoViewData, start: TwoViewStart, options: ScaleOpt
                                     f"{getattr(default, k)!r}, got {getattr(refine, k)!r}")
     if data.centres is None:
         raise CatadioptricError("data.centres: expected (c_A, c_B), required by refine_far_or_free, got None")
-    free, held = far_and_free_fits(data, start, refine, far=far)
+    if isinstance(options.threads, bool) or not (isinstance(options.threads, (int, np.integer)) and options.threads in (1, 2)):
+        raise CatadioptricError(f"threads: expected 1 or 2, got {options.threads!r}")
+    free, held = far_and_free_fits(data, start, refine, far=far, threads=int(options.threads))
     ca, cb = (np.asarray(c, float) for c in data.centres)
     _, _, std = _baseline(free, ca, cb)
     if held is None:
@@ -202,23 +209,34 @@ def refine_far_or_free(data: TwoViewData, start: TwoViewStart, options: ScaleOpt
 
 
 def far_and_free_fits(data: TwoViewData, start: TwoViewStart, options: TwoViewOptions = TwoViewOptions(), *,
-                      far: float = FAR) -> tuple[TwoViewFit, TwoViewFit | None]:
+                      far: float = FAR, threads: int = 2) -> tuple[TwoViewFit, TwoViewFit | None]:
     """The two refinements :func:`refine_far_or_free` chooses between, ``(free, far)``: free from
     the start given; far from the start scaled about the centres (``data.centres``, required) until
     the baseline is ``far`` times the larger mirror's size (not shrunk when already longer), every
     line with it, and the scale held there. ``options``: those of both refinements (the far one's
     ``hold_scale`` and ``release_scale`` set here). The far fit is None when the start or the free
-    fit has no baseline to scale (the two views' centres meet)."""
+    fit has no baseline to scale (the two views' centres meet). ``threads``: 2, the two fits side by
+    side (each is independent of the other: the same answers to the bit as one after the other);
+    1, one after the other."""
     R0 = np.asarray(start.R, float)
     ca, cb = (np.asarray(c, float) for c in data.centres)
     data = replace(data, centres=(ca, cb))
-    free = refine_two_view(data, replace(start, R=R0), options)
-    if float(np.linalg.norm(R0 @ ca + np.asarray(start.t, float) - cb)) == 0.0 or \
-            float(np.linalg.norm(free.R @ ca + free.t - cb)) == 0.0:
-        return free, None
+    free_start = replace(start, R=R0)
+    if float(np.linalg.norm(R0 @ ca + np.asarray(start.t, float) - cb)) == 0.0:
+        return refine_two_view(data, free_start, options), None
     t_far, points_far = far_start(data.cam_a, data.cam_b, R0, start.t, start.points, centres=(ca, cb), far=far)
-    held = refine_two_view(data, TwoViewStart(R0, t_far, start.directions, points_far),
-                           replace(options, hold_scale=True, release_scale=0.0))
+    far_args = (data, TwoViewStart(R0, t_far, start.directions, points_far),
+                replace(options, hold_scale=True, release_scale=0.0))
+    if threads > 1:
+        with ThreadPoolExecutor(1) as pool:
+            held_future = pool.submit(refine_two_view, *far_args)
+            free = refine_two_view(data, free_start, options)
+            held = held_future.result()
+    else:
+        free = refine_two_view(data, free_start, options)
+        held = refine_two_view(*far_args)
+    if float(np.linalg.norm(free.R @ ca + free.t - cb)) == 0.0:
+        return free, None
     return free, held
 
 

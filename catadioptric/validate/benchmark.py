@@ -105,7 +105,7 @@ def _fingerprint(spec: dict, config: dict, pair, kind: str = "labels", code: str
 
 
 def _evaluate_pair(args) -> dict:
-    spec, config, pair, folder, path, fp, kind, code = args
+    spec, config, pair, folder, path, fp, kind, code, threads = args
     from .relative_pose import evaluate_pair
 
     t0 = time.perf_counter()
@@ -117,7 +117,7 @@ def _evaluate_pair(args) -> dict:
     else:
         res = evaluate_pair(folder, pair.names, noise_levels=spec["noise_px"], draws=spec["draws"],
                             seed=[spec["seed"], pair.index], pixels=spec["pixels"], min_pixels=spec["min_pixels"],
-                            max_pixels=spec["max_pixels"])
+                            max_pixels=spec["max_pixels"], threads=threads)
     res.update({"config": config["name"], "rig": config["rig"], "pair": pair.index, "renderer": pair.renderer,
                 "fingerprint": fp, "code": code, "seconds": time.perf_counter() - t0})
     atomic_write_json(path, jsonable(res))
@@ -167,8 +167,9 @@ def evaluate_benchmark(spec: dict, data: str, *, workers: int = 1, progress: boo
             except (OSError, ValueError):
                 pass
             os.makedirs(os.path.dirname(path), exist_ok=True)
+            # workers that keep every core busy run each draw's two refinements one after the other
             tasks.append((key, (spec, config, p, dataset_folder(data, config["name"], p.renderer), path, fp, kind,
-                                code)))
+                                code, 1 if workers > 1 else 2)))
     bar = None
     if progress and tasks:
         from tqdm import tqdm

@@ -121,10 +121,11 @@ def noise_rng(seed, noise: float, draw: int):
 
 def evaluate_pair(dataset, names, *, noise_levels=(2.0,), draws: int = 1, seed=0, pixels: str = "curve",
                   min_pixels: int = 30, max_pixels: int | None = None, ends: str = "unknown",
-                  central: bool = True, decisive: float = 25.0) -> dict:
+                  central: bool = True, decisive: float = 25.0, threads: int = 2) -> dict:
     """Every noise level and draw of the view pair ``names = (A, B)`` of ``dataset`` (a folder or a
     :class:`catadioptric.Dataset`): ``draws`` noise draws per level above 0, one at level 0 (its
-    pixels are the same in every draw). Returns the report dict (docs/relative_pose.md, "Report")."""
+    pixels are the same in every draw). ``threads``: as :func:`catadioptric.pose.relative_pose`'s
+    (the answers do not depend on it). Returns the report dict (docs/relative_pose.md, "Report")."""
     if ends not in ENDS:
         raise CatadioptricError(f"ends: expected one of {list(ENDS)}, got {ends!r}")
     if not (isinstance(draws, (int, np.integer)) and draws >= 1):
@@ -137,10 +138,11 @@ def evaluate_pair(dataset, names, *, noise_levels=(2.0,), draws: int = 1, seed=0
     # the solves here are small: a multithreaded BLAS only fights other processes for the cores
     with threadpool_limits(1):
         return _evaluate_pair(dataset, names, noise_levels, draws, seed, pixels, min_pixels, max_pixels, ends, central,
-                              decisive)
+                              decisive, threads)
 
 
-def _evaluate_pair(dataset, names, noise_levels, draws, seed, pixels, min_pixels, max_pixels, ends, central, decisive):
+def _evaluate_pair(dataset, names, noise_levels, draws, seed, pixels, min_pixels, max_pixels, ends, central, decisive,
+                   threads):
     from ..dataset import Dataset
     from ..pose import ViewLines, choose_model, relative_pose
     from ..pose.families import rays_centre
@@ -181,7 +183,7 @@ def _evaluate_pair(dataset, names, noise_levels, draws, seed, pixels, min_pixels
                 t0 = time.perf_counter()
                 try:
                     res = relative_pose(views[0], views[1], ends=hints if ends == "given" else None, seed=k,
-                                        decisive=decisive, max_pixels=max_pixels,
+                                        decisive=decisive, max_pixels=max_pixels, threads=threads,
                                         model_error_px=model_px if label == "central" else 0.0)
                 except CatadioptricError as exc:
                     msg = str(exc)
