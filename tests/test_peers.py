@@ -117,6 +117,24 @@ def test_the_peers_recover_the_truth_on_a_render(tiny):
     assert [d["seed"] for d in noisy] == [[0, 1000, k] for k in range(3)]
 
 
+def test_the_label_path_beside_the_peers_runs_in_one_thread_as_they_do(tiny, monkeypatch):
+    """The peers' seconds are one thread's (PoseLib's solvers, one process): the label path beside
+    them runs its two refinements one after the other, not side by side."""
+    from catadioptric.validate import relative_pose as rp
+    from catadioptric.validate.peers import evaluate_peers
+
+    real, asked = rp.evaluate_pair, []
+
+    def spy(*args, **kw):
+        asked.append(kw.get("threads", 2))
+        return real(*args, **kw)
+
+    monkeypatch.setattr(rp, "evaluate_pair", spy)
+    res = evaluate_peers(tiny, ["A", "B"], noise_levels=[0.0], draws=1, spacing=8.0, ransac_options=FAST,
+                         label_path=True)
+    assert asked == [1] and "label_path" in res["draws"][0]
+
+
 def test_the_command_writes_its_report(tiny, tmp_path, capsys):
     out = str(tmp_path / "report")
     assert main(["validate", "peers", "--data", tiny, "--views", "A", "B", "--noise", "0", "--out", out,

@@ -433,8 +433,9 @@ def _evaluate(ds, names, noise_levels, draws, seed, spacing, min_pixels, ransac_
                                     sec, rad_px)
             out["draws"].append(rec)
     if label_path:
+        # one thread, as each peer: the seconds compare the methods, not the threads they take
         res = evaluate_pair(ds, names, noise_levels=noise_levels, draws=draws, seed=seed, min_pixels=min_pixels,
-                            central=False)
+                            central=False, threads=1)
         by = {(d["noise_px"], d["draw"]): d for d in res["draws"]}
         for rec in out["draws"]:
             d = by.get((rec["noise_px"], rec["draw"]))
