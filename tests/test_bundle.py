@@ -115,14 +115,32 @@ def _line_at_the_mirror():
                    np.array([3.0, 0.0, 0.0]))
 
 
+def _random_steps(pb, y, rng, n):
+    """``n`` random linearised systems at the state ``y`` (all depths 0): each one's reduced normal
+    equations, its unconstrained step and the step :func:`_solve_step` takes."""
+    from catadioptric.pose.bundle import _normal_equations, _solve_step
+
+    for _ in range(n):
+        A = rng.normal(size=(pb.N, 2, 10))
+        b = rng.normal(size=(pb.N, 2))
+        e = rng.normal(size=(pb.N, 2))
+        w = rng.uniform(0.5, 1.0, pb.N)
+        S, g, Hym, gm, Hmm_d = _normal_equations(pb, A, b, e, w, 0.0)
+        yield S, g, Hym, gm, Hmm_d, np.linalg.solve(S, -g), _solve_step(pb, A, b, e, w, 0.0, y, np.zeros(pb.N))
+
+
+def _minimiser_on(S, g, c, rhs):
+    """The minimiser of ``dy' S dy / 2 + g' dy`` subject to ``c' dy = rhs`` (KKT system)."""
+    K = np.block([[S, c[:, None]], [c[None, :], np.zeros((1, 1))]])
+    return np.linalg.solve(K, np.r_[-g, rhs])[:len(g)]
+
+
 def test_a_step_against_a_bound_is_the_step_on_the_bound():
     """When the Gauss-Newton step pushes a line against its nearest distance, the step taken is the
     minimiser of the same quadratic model with the line on the bound (d rho~ = rho~ d sigma),
     solved here as an equality-constrained problem (KKT); a step that does not push is the free
     one. Clipping the free step instead leaves the rest of it inconsistent (the refinement crawled
     for 50 iterations on benchmark pairs)."""
-    from catadioptric.pose.bundle import _normal_equations, _solve_step
-
     pb = _line_at_the_mirror()
     y = pb.start()
     i0 = 7 + 2 * pb.F  # rho~ of line 0
@@ -130,20 +148,11 @@ def test_a_step_against_a_bound_is_the_step_on_the_bound():
     y[i0 + 2] = 10.0  # line 1 well inside its bounds: these steps do not carry it past rho_min
     rng = np.random.default_rng(7)
     pushed = free = 0
-    for _ in range(60):
-        A = rng.normal(size=(pb.N, 2, 10))
-        b = rng.normal(size=(pb.N, 2))
-        e = rng.normal(size=(pb.N, 2))
-        w = rng.uniform(0.5, 1.0, pb.N)
-        mu = np.zeros(pb.N)
-        S, g, Hym, gm, Hmm_d = _normal_equations(pb, A, b, e, w, 0.0)
-        dy_free = np.linalg.solve(S, -g)
-        dy, dmu = _solve_step(pb, A, b, e, w, 0.0, y, mu)
+    for S, g, Hym, gm, Hmm_d, dy_free, (dy, dmu) in _random_steps(pb, y, rng, 60):
         if dy_free[i0] - y[i0] * dy_free[5] > 0:  # pushes line 0 towards the mirror
-            C = np.zeros((1, pb.ny))
-            C[0, i0], C[0, 5] = 1.0, -y[i0]
-            K = np.block([[S, C.T], [C, np.zeros((1, 1))]])
-            ref = np.linalg.solve(K, np.r_[-g, 0.0])[:pb.ny]
+            C = np.zeros(pb.ny)
+            C[i0], C[5] = 1.0, -y[i0]
+            ref = _minimiser_on(S, g, C, 0.0)
             assert np.allclose(dy, ref, rtol=1e-7, atol=1e-9 * np.abs(ref).max())
             assert np.abs(dy - dy_free).max() > 1e-3 * np.abs(dy_free).max()
             pushed += 1
@@ -160,8 +169,6 @@ def test_a_step_that_carries_a_line_past_infinity_puts_it_on_its_bound():
     ``rho_min`` (KKT, solved here); a step that leaves it above is the free one. The step used to
     be clipped by ``apply``, rejected, and shrunk until it stopped short of the bound, again and
     again (the sphere's refinements ran to their cap of 50 steps)."""
-    from catadioptric.pose.bundle import _normal_equations, _solve_step
-
     pb = _line_at_the_mirror()
     y = pb.start()
     y[7 + 2 * pb.F] *= 0.5  # line 0 off its nearest bound
@@ -169,20 +176,9 @@ def test_a_step_that_carries_a_line_past_infinity_puts_it_on_its_bound():
     y[i1] = 50.0 * pb.rho_min
     rng = np.random.default_rng(9)
     onto = free = 0
-    for _ in range(60):
-        A = rng.normal(size=(pb.N, 2, 10))
-        b = rng.normal(size=(pb.N, 2))
-        e = rng.normal(size=(pb.N, 2))
-        w = rng.uniform(0.5, 1.0, pb.N)
-        mu = np.zeros(pb.N)
-        S, g, Hym, gm, Hmm_d = _normal_equations(pb, A, b, e, w, 0.0)
-        dy_free = np.linalg.solve(S, -g)
-        dy, dmu = _solve_step(pb, A, b, e, w, 0.0, y, mu)
+    for S, g, Hym, gm, Hmm_d, dy_free, (dy, dmu) in _random_steps(pb, y, rng, 60):
         if y[i1] + dy_free[i1] < pb.rho_min:
-            C = np.zeros((1, pb.ny))
-            C[0, i1] = 1.0
-            K = np.block([[S, C.T], [C, np.zeros((1, 1))]])
-            ref = np.linalg.solve(K, np.r_[-g, pb.rho_min - y[i1]])[:pb.ny]
+            ref = _minimiser_on(S, g, np.eye(pb.ny)[i1], pb.rho_min - y[i1])
             assert np.allclose(dy, ref, rtol=1e-7, atol=1e-9 * np.abs(ref).max())
             assert np.isclose(y[i1] + dy[i1], pb.rho_min, rtol=1e-9, atol=0.0)
             onto += 1
