@@ -129,9 +129,10 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
 def pose_from_detections(det_a, det_b, *, min_pixels: int = 30, max_rotation_deg: float | None = None,
                          decisive: float = 25.0, decisive_matching: float | None = None, seed: int = 0,
                          joint: bool = True, covariance_scale: float | None = None,
-                         calibration_rms_px: float = 0.0) -> ImagePairPose:
+                         calibration_rms_px: float = 0.0, threads: int = 2) -> ImagePairPose:
     """The relative pose from two detections (:class:`catadioptric.detect.DetectedLines`); the
-    options are those of :func:`relative_pose_from_images`.
+    options are those of :func:`relative_pose_from_images`, and ``threads``: as
+    :func:`catadioptric.pose.relative_pose`'s (the answers do not depend on it).
 
     The fit takes the detected pixels' errors as independent; they are not (module constant
     :data:`COVARIANCE_SCALE`), and the answer's covariance is the fit's times
@@ -151,7 +152,7 @@ def pose_from_detections(det_a, det_b, *, min_pixels: int = 30, max_rotation_deg
     scale = COVARIANCE_SCALE if covariance_scale is None else as_scalar(covariance_scale, "covariance_scale",
                                                                         positive=True)
     res = _pose_from_detections(det_a, det_b, min_pixels, max_rotation_deg, decisive, decisive_matching, seed, joint,
-                                calibration_rms_px)
+                                calibration_rms_px, threads)
     p = res.pose
     if scale != 1.0 and p.cov is not None:
         p.cov = p.cov * scale**2
@@ -161,7 +162,7 @@ def pose_from_detections(det_a, det_b, *, min_pixels: int = 30, max_rotation_deg
 
 
 def _pose_from_detections(det_a, det_b, min_pixels, max_rotation_deg, decisive, decisive_matching, seed, joint,
-                          calibration_rms_px):
+                          calibration_rms_px, threads):
     from .detect.joint_families import joint_families, with_families
     from .pose import relative_pose, rotation_angle_deg
 
@@ -178,7 +179,8 @@ def _pose_from_detections(det_a, det_b, min_pixels, max_rotation_deg, decisive, 
                     f"({len(d)} lines detected, {int(np.sum(d.family >= 0))} in a family, {len(v.uv)} of them "
                     f"with {min_pixels} pixels or more)")
         return relative_pose(views[0], views[1], seed=seed, decisive=decisive, max_rotation_deg=max_rotation_deg,
-                             decisive_matching=decisive_matching, calibration_rms_px=calibration_rms_px)
+                             decisive_matching=decisive_matching, calibration_rms_px=calibration_rms_px,
+                             threads=threads)
 
     pose = estimate(dets)
     fmap = _family_map(pose)

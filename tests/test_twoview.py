@@ -575,3 +575,21 @@ def test_an_answer_that_turns_b_out_of_view_ranks_last_without_masks():
     assert ranked_agreement(a, masked=True) is None
     assert ranked_agreement([np.nan, np.nan], masked=False) is None
     np.testing.assert_array_equal(ranked_agreement([0.3, 0.2], masked=True), [0.3, 0.2])
+
+
+def test_the_threads_asked_of_the_image_path_reach_each_refinement(with_prior_alone, monkeypatch):
+    """``pose_from_detections(threads=1)`` (the benchmark's workers) runs every refinement of the two
+    fits one after the other, and answers as with two threads side by side (the default)."""
+    import catadioptric.pose as pose_pkg
+    from catadioptric.twoview import pose_from_detections
+
+    real, asked = pose_pkg.relative_pose, []
+
+    def spy(*args, **kw):
+        asked.append(kw.get("threads", 2))
+        return real(*args, **kw)
+
+    monkeypatch.setattr(pose_pkg, "relative_pose", spy)
+    res = pose_from_detections(*with_prior_alone.detections, max_rotation_deg=60.0, threads=1)
+    assert asked and set(asked) == {1}
+    assert np.array_equal(res.pose.R, pose_from_detections(*with_prior_alone.detections, max_rotation_deg=60.0).pose.R)

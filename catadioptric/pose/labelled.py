@@ -30,7 +30,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .._checks import CatadioptricError, as_scalar
+from .._checks import CatadioptricError, as_count, as_scalar
 from .bundle import TwoViewData, TwoViewFit, TwoViewOptions, TwoViewStart
 from .central import (CrossingFit, Parallax, meeting_rays, parallax, residual_weights, rotation_twins,
                       translation_direction_from_crossings)
@@ -116,8 +116,7 @@ class PoseOptions:
             if v < 0:
                 raise CatadioptricError(f"{name}: expected a non-negative number of pixels, got {v}")
             ok[name] = v
-        if isinstance(self.threads, bool) or not (isinstance(self.threads, (int, np.integer)) and self.threads in (1, 2)):
-            raise CatadioptricError(f"threads: expected 1 or 2, got {self.threads!r}")
+        ok["threads"] = as_count(self.threads, "threads", minimum=1, maximum=2)
         return replace(self, **ok)
 
 

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .._checks import CatadioptricError, as_scalar
+from .._checks import CatadioptricError, as_count, as_scalar
 from .bundle import TwoViewData, TwoViewFit, TwoViewOptions, TwoViewStart, refine_two_view
 from .translation import triangulate_lines
 
@@ -194,9 +194,8 @@ def refine_far_or_free(data: TwoViewData, start: TwoViewStart, options: ScaleOpt
                                     f"{getattr(default, k)!r}, got {getattr(refine, k)!r}")
     if data.centres is None:
         raise CatadioptricError("data.centres: expected (c_A, c_B), required by refine_far_or_free, got None")
-    if isinstance(options.threads, bool) or not (isinstance(options.threads, (int, np.integer)) and options.threads in (1, 2)):
-        raise CatadioptricError(f"threads: expected 1 or 2, got {options.threads!r}")
-    free, held = far_and_free_fits(data, start, refine, far=far, threads=int(options.threads))
+    threads = as_count(options.threads, "threads", minimum=1, maximum=2)
+    free, held = far_and_free_fits(data, start, refine, far=far, threads=threads)
     ca, cb = (np.asarray(c, float) for c in data.centres)
     _, _, std = _baseline(free, ca, cb)
     if held is None:

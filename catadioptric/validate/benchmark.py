@@ -113,7 +113,7 @@ def _evaluate_pair(args) -> dict:
         from .image_pairs import evaluate_image_pair
 
         res = evaluate_image_pair(folder, pair.names, priors=(None, *spec["images"]["max_rotation_deg"]),
-                                  min_pixels=spec["min_pixels"], overlay=path[:-len(".json")] + ".png")
+                                  min_pixels=spec["min_pixels"], overlay=path[:-len(".json")] + ".png", threads=threads)
     else:
         res = evaluate_pair(folder, pair.names, noise_levels=spec["noise_px"], draws=spec["draws"],
                             seed=[spec["seed"], pair.index], pixels=spec["pixels"], min_pixels=spec["min_pixels"],

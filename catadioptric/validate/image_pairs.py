@@ -155,17 +155,17 @@ def _lost(scores, label_families, rows) -> list[dict]:
 
 
 def evaluate_image_pair(dataset, names, *, priors=(None, 60.0), min_pixels: int = 30, detect_options=None,
-                        overlay: str | None = None, joint: bool = True, look: bool = True) -> dict:
+                        overlay: str | None = None, joint: bool = True, look: bool = True, threads: int = 2) -> dict:
     """Score the image-only path on the view pair ``names = (A, B)`` of ``dataset`` (a folder or a
     :class:`catadioptric.Dataset`) for each motion prior. ``overlay``: a PNG path for the pair's
     overlay (the answer of the last prior). ``joint``: see
     :func:`catadioptric.twoview.pose_from_detections`; ``look``: an answer left ambiguous by its
-    margin decided by the images' look where it can be (:func:`catadioptric.twoview.settle_by_look`).
-    Returns a JSON-ready dict."""
+    margin decided by the images' look where it can be (:func:`catadioptric.twoview.settle_by_look`);
+    ``threads``: as :func:`catadioptric.pose.relative_pose`'s. Returns a JSON-ready dict."""
     from threadpoolctl import threadpool_limits
 
     with threadpool_limits(1):
-        return _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, (joint, look))
+        return _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, (joint, look, threads))
 
 
 def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, steps):
@@ -197,12 +197,13 @@ def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, steps
            "families_label": label_families, "families_label_3": label_families_3, "runs": []}
     centres = [rays_centre(c) for c in (va["camera"], vb["camera"])]
     last = None
-    joint, look = steps
+    joint, look, threads = steps
     for prior in priors:
         rec = {"max_rotation_deg": prior}
         t1 = time.perf_counter()
         try:
-            pair = pose_from_detections(dets[0], dets[1], min_pixels=min_pixels, max_rotation_deg=prior, joint=joint)
+            pair = pose_from_detections(dets[0], dets[1], min_pixels=min_pixels, max_rotation_deg=prior, joint=joint,
+                                        threads=threads)
         except CatadioptricError as exc:
             rec.update({"error": str(exc), "seconds": time.perf_counter() - t1})
             out["runs"].append(rec)
