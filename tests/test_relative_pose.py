@@ -382,7 +382,7 @@ def test_images_continued_between_steps_give_the_searched_answer(name, monkeypat
     the polish's ``tol_chi2 * min(1, noise / sigma_cost)^2`` is no larger). Near the minimum ``x*``
     the cost is ``C(x) = C* + (x - x*)' Cov^-1 (x - x*)`` (the Hessian ``2 J'J / sigma^2`` is
     ``2 Cov^-1``, eigenvalues ``lambda = 2 / sd^2``), and the last step, a Gauss-Newton step (the
-    damping falls by up to a third per accepted step, Nielsen's rule, from 1e-5 of the scaled
+    damping falls at most threefold per accepted step, Nielsen's rule, from 1e-5 of the scaled
     diagonal), gains that whole difference: so each answer is
     within ``sqrt(2 dC / lambda_min) = sqrt(dC) sd_max`` of ``x*`` along the flattest direction,
     i.e. within a Mahalanobis distance ``sqrt(dC)``; the projection on the rotation (the
