@@ -8,6 +8,9 @@ whatever the batch, and norms that neither overflow nor underflow.
   it to 1), would get other last bits, which near a degeneracy can decide whether a
   solution is kept. ``np.einsum`` without ``optimize`` sums each entry in the order of the
   inner index, without BLAS.
+* :func:`row_norm`: ``np.linalg.norm(v, axis=-1)`` of short rows (2- or 3-vectors), the same bits,
+  without the strided reduction numpy runs over a last axis that short (4-12 times the time of
+  the squares summed one component after the other, on the line fits' batches).
 * :func:`unit` and :func:`norm` divide by the largest component before squaring, so that
   vectors of any finite length (1e-300 or 1e300) keep their direction.
 """
@@ -15,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["rowdot", "unit", "norm", "max_abs", "cross", "LUMA"]
+__all__ = ["rowdot", "unit", "norm", "row_norm", "max_abs", "cross", "LUMA"]
 
 #: the luminance of RGB levels: Rec. 601 weights, as OpenCV's colour-to-grey conversion (one convention for the
 #: whole project: detection, chessboard corners, the sides of a line)
@@ -42,6 +45,20 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     out[..., 1] = a2 * b0 - a0 * b2
     out[..., 2] = a0 * b1 - a1 * b0
     return out
+
+
+def row_norm(v: np.ndarray) -> np.ndarray:
+    """``np.linalg.norm(v, axis=-1)`` to the same bits (the same squares, added in the same order:
+    numpy's reduction adds fewer than 8 of them one after the other from the first; longer rows,
+    which it sums pairwise, are passed to it), for rows ``v (..., k)``; the squares neither scaled
+    nor guarded (:func:`norm` for that)."""
+    v = np.asarray(v, dtype=float)
+    if not 0 < v.shape[-1] < 8:
+        return np.linalg.norm(v, axis=-1)
+    s = v[..., 0] * v[..., 0]
+    for i in range(1, v.shape[-1]):
+        s = s + v[..., i] * v[..., i]
+    return np.sqrt(s)
 
 
 def max_abs(v: np.ndarray, axis: int = -1, keepdims: bool = True) -> np.ndarray:

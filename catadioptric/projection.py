@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ._checks import CatadioptricError, as_float_array
-from ._numeric import norm, rowdot, unit
+from ._numeric import norm, row_norm, rowdot, unit
 from .mirrors import QuadricMirror
 from .solvers.reflection import reflect
 
@@ -248,7 +248,7 @@ def project_from(cam: CatadioptricCamera, points, start):
     m = polish_accept(h, owner, np.ascontiguousarray(r0[owner] / L), A, B, C,
                       np.ascontiguousarray(cam.center, dtype=float) / L, zlo, zhi, False, 6, ACCEPT, out_o, rr, fwd)
     o, rr = out_o[:m], rr[:m] * L
-    near = np.linalg.norm(rr - r0[o], axis=1) <= 0.25 * L
+    near = row_norm(rr - r0[o]) <= 0.25 * L
     o, rr = o[near], rr[near]
     vis = visibility(cam, rr, P[o], np.ones(len(o)))
     o, rr = o[vis], rr[vis]

@@ -7,7 +7,7 @@ import numpy as np
 from .._checks import CatadioptricError, as_float_array
 from ..cameras import CatadioptricCamera
 from ._common import check_options, check_uv, as_rng, scatter, tangent_basis
-from .._numeric import cross
+from .._numeric import cross, row_norm
 from .planes import Rays, pixel_rays_with_jacobian, plane_covariances, plane_distances, refine_planes
 from .results import InterpretationPlane
 
@@ -170,7 +170,7 @@ def _distances(n, rays, line):
     """Each ray's first-order image distance (pixels) to its line's plane, normals ``n (G, 3)``."""
     nl = n[line]
     num = np.abs(np.sum(nl * rays.d, axis=1))
-    den = np.linalg.norm(np.einsum("mk,mkj->mj", nl, rays.Jd), axis=1)
+    den = row_norm(np.einsum("mk,mkj->mj", nl, rays.Jd))
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(den > 0, num / den, np.inf)
 
@@ -199,10 +199,11 @@ def _ransac_planes(rays, line, counts, seed, thr, max_trials):
     for g in np.flatnonzero(sampled):
         rng = rng_shared if rng_shared is not None else as_rng(seed)
         M = int(counts[g])
-        idx = np.concatenate([np.argsort(rng.random((64, M)), axis=1)[:, :2] for _ in range(rounds)])
+        # the first two of each row's random order (argsort's [:, :2], found without sorting the rest)
+        idx = np.concatenate([np.argpartition(rng.random((64, M)), 1, axis=1)[:, :2] for _ in range(rounds)])
         pairs[g] = starts[g] + idx
     hyp = cross(d[pairs[..., 0]], d[pairs[..., 1]])  # (G, T, 3)
-    nn = np.linalg.norm(hyp, axis=-1)
+    nn = row_norm(hyp)
     usable = (nn > 1e-12) & sampled[:, None]
     hyp = hyp / np.where(usable, nn, 1.0)[..., None]
     # every hypothesis of a line against that line's rays (one product per line)

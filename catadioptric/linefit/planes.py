@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._numeric import row_norm
 from ._common import tangent_basis
 from .distances import pixels_with_rays
 
@@ -68,7 +69,7 @@ def plane_distances(n: np.ndarray, rays: Rays) -> np.ndarray:
     num = np.abs(n @ rays.d.T)
     M = len(rays.d)
     # Jd^T n of every pixel and normal as one product: (H, 3) by (3, M 2)
-    den = np.linalg.norm((n @ rays.Jd.transpose(1, 0, 2).reshape(3, 2 * M)).reshape(len(n), M, 2), axis=-1)
+    den = row_norm((n @ rays.Jd.transpose(1, 0, 2).reshape(3, 2 * M)).reshape(len(n), M, 2))
     with np.errstate(divide="ignore", invalid="ignore"):
         r = np.where((den > 0) & rays.ok[None], num / den, np.inf)
     return r[0] if one else r
@@ -81,13 +82,13 @@ def refine_plane(rays: Rays, n0: np.ndarray | None = None, iters: int = 8, tol: 
     d, Jd = rays.d[rays.ok], rays.Jd[rays.ok]
     w = np.ones(len(d))
     if n0 is not None:
-        w = 1.0 / np.maximum(np.linalg.norm(n0 @ Jd, axis=-1), 1e-300) ** 2
+        w = 1.0 / np.maximum(row_norm(n0 @ Jd), 1e-300) ** 2
     n = n0
     for _ in range(iters):
         n_new = np.linalg.eigh((d * w[:, None]).T @ d)[1][:, 0]
         if n is not None and n_new @ n < 0:
             n_new = -n_new
-        w = 1.0 / np.maximum(np.linalg.norm(n_new @ Jd, axis=-1), 1e-300) ** 2
+        w = 1.0 / np.maximum(row_norm(n_new @ Jd), 1e-300) ** 2
         done = n is not None and np.linalg.norm(n_new - n) < tol
         n = n_new
         if done:
@@ -102,7 +103,7 @@ def plane_covariance(n: np.ndarray, rays: Rays, sigma: float) -> np.ndarray:
     d, Jd = rays.d[rays.ok], rays.Jd[rays.ok]
     e1, e2 = tangent_basis(n)
     E = np.stack([e1, e2], axis=1)
-    w = 1.0 / np.maximum(np.linalg.norm(np.einsum("mki,k->mi", Jd, n), axis=-1), 1e-300)
+    w = 1.0 / np.maximum(row_norm(np.einsum("mki,k->mi", Jd, n)), 1e-300)
     A = (d @ E) * w[:, None]
     return E @ np.linalg.pinv(A.T @ A) @ E.T * sigma**2
 
@@ -127,12 +128,12 @@ def refine_planes(rays, line, mask, G, lines=None, iters: int = 50, tol: float =
         n_new = np.linalg.eigh(S[active])[1][:, :, 0]
         if not first:
             n_new = np.where((np.sum(n_new * n[active], axis=1) < 0)[:, None], -n_new, n_new)
-            done = np.linalg.norm(n_new - n[active], axis=1) < tol
+            done = row_norm(n_new - n[active]) < tol
         else:
             done = np.zeros(len(n_new), dtype=bool)
         n[active] = n_new
         m = mask & active[line]
-        w[m] = 1.0 / np.maximum(np.linalg.norm(np.einsum("mk,mkj->mj", n[line[m]], Jd[m]), axis=-1), 1e-300) ** 2
+        w[m] = 1.0 / np.maximum(row_norm(np.einsum("mk,mkj->mj", n[line[m]], Jd[m])), 1e-300) ** 2
         idx = np.flatnonzero(active)
         active[idx[done]] = False
         first = False
@@ -146,7 +147,7 @@ def plane_covariances(n, rays, line, mask, sigma):
     e1, e2 = tangent_basis(n)
     E = np.stack([e1, e2], axis=2)  # (G, 3, 2)
     nl = n[line]
-    w = 1.0 / np.maximum(np.linalg.norm(np.einsum("mk,mkj->mj", nl, rays.Jd), axis=-1), 1e-300)
+    w = 1.0 / np.maximum(row_norm(np.einsum("mk,mkj->mj", nl, rays.Jd)), 1e-300)
     A = np.einsum("mi,mij->mj", rays.d, E[line]) * (w * mask)[:, None]
     AtA = np.stack([np.bincount(line, A[:, a] * A[:, b], G) for a in range(2) for b in range(2)], 1).reshape(G, 2, 2)
     return E @ np.linalg.pinv(AtA) @ E.transpose(0, 2, 1) * (sigma**2)[:, None, None]

@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._checks import CatadioptricError
-from .._numeric import cross
+from .._numeric import cross, row_norm
 from .rotation import skew
 
 __all__ = ["meeting_terms", "meeting_residuals", "check_corners"]
@@ -99,7 +99,7 @@ def _transversal_residual(X):
     U1, T1, U2, T2, th = (X[:, a] for a in range(5))
     xa = cross(cross(U1, T1), cross(U2, T2))
     xb = cross(cross(U1 + th, T1), cross(U2 + th, T2))
-    den = np.maximum(np.linalg.norm(xa, axis=1) * np.linalg.norm(xb, axis=1), 1e-300)
+    den = np.maximum(row_norm(xa) * row_norm(xb), 1e-300)
     return np.sum(th * cross(xa, xb), axis=1) / den
 
 
