@@ -5,7 +5,9 @@ Four measurements, each on the pairs of the relative-pose benchmark's datasets (
 ``catadioptric validate benchmark``, default ``render/out/relative_pose_benchmark``):
 
 * ``labels``: :func:`catadioptric.pose.relative_pose` of each pair's labelled lines at ``--noise``
-  pixels, one draw per ``--seeds`` (the pixels sampled beforehand, as the benchmark does);
+  pixels, one draw per ``--seeds`` (the pixels sampled beforehand, as the benchmark does), at most
+  ``--max-pixels`` of each line fitted (default: the library's 40; the benchmark's draws: 1000,
+  every pixel);
 * ``images``: :func:`catadioptric.relative_pose` of each pair's two beauty images, prior 60 degrees;
 * ``images-no-prior``: the same without a motion prior (the default; every family assignment a
   rotation allows is matched and scored);
@@ -23,6 +25,7 @@ Run (about a minute a round on two cores)::
 
     .venv/bin/python bench/bench_pose_speed.py
     .venv/bin/python bench/bench_pose_speed.py --compare 35e3db4 --rounds 3
+    .venv/bin/python bench/bench_pose_speed.py --what labels --max-pixels 1000 --out bench/results/pose-speed-every-pixel.json
 """
 from __future__ import annotations
 
@@ -47,7 +50,7 @@ PAIRS = ["sphere_povray:p01", "sphere_mitsuba:p02", "ellipsoid_mitsuba:p04", "el
 WHAT = ("labels", "images", "images-no-prior", "detection")
 
 
-def _measure(data: str, pairs: list, seeds: list, noise: float, what: str) -> dict:
+def _measure(data: str, pairs: list, seeds: list, noise: float, what: str, max_pixels: int = 40) -> dict:
     """Seconds of each item of ``what`` (module docstring) and a digest of the results."""
     import numpy as np
 
@@ -69,7 +72,8 @@ def _measure(data: str, pairs: list, seeds: list, noise: float, what: str) -> di
                 rng = np.random.default_rng(seed)
                 lines = [line_pixels(v, noise_px=noise, rng=rng) for v in (va, vb)]
                 views = [ViewLines(v["camera"], b.uv, b.family, b.segment) for v, b in zip((va, vb), lines)]
-                jobs.append(lambda views=views, seed=seed: relative_pose(views[0], views[1], seed=seed))
+                jobs.append(lambda views=views, seed=seed: relative_pose(views[0], views[1], seed=seed,
+                                                                         max_pixels=max_pixels))
         elif what in ("images", "images-no-prior"):
             a, b = (os.path.join(folder, pair + s, "beauty.png") for s in "AB")
             prior = 60.0 if what == "images" else None
@@ -110,7 +114,8 @@ def _run(code: str, args, what: str) -> dict:
     """One measurement in a fresh process with the package of ``code`` (a checkout's root)."""
     env = dict(os.environ, PYTHONPATH=code)
     cmd = [sys.executable, os.path.join(HERE, "bench_pose_speed.py"), "--measure", what, "--data", args.data,
-           "--noise", str(args.noise), "--seeds", *map(str, args.seeds), "--pairs", *args.pairs]
+           "--noise", str(args.noise), "--max-pixels", str(args.max_pixels), "--seeds", *map(str, args.seeds),
+           "--pairs", *args.pairs]
     p = subprocess.run(cmd, env=env, capture_output=True, text=True)
     if p.returncode != 0:
         raise SystemExit(f"measurement {what} with {code} failed:\n{p.stderr[-2000:]}")
@@ -132,6 +137,8 @@ def main() -> int:
     ap.add_argument("--pairs", nargs="+", default=PAIRS, metavar="DATASET:PAIR")
     ap.add_argument("--seeds", nargs="+", type=int, default=[0, 1], help="label path: one draw per seed")
     ap.add_argument("--noise", type=float, default=2.0, help="label path: pixel noise (default 2)")
+    ap.add_argument("--max-pixels", type=int, default=40,
+                    help="label path: pixels fitted per line (default 40, the library's; 1000: the benchmark's)")
     ap.add_argument("--what", nargs="+", choices=WHAT, default=list(WHAT))
     ap.add_argument("--compare", metavar="REV", help="a git revision to time against, alternately")
     ap.add_argument("--rounds", type=int, default=1, help="runs of each code (default 1)")
@@ -139,7 +146,7 @@ def main() -> int:
     ap.add_argument("--out", default=os.path.join(HERE, "results", "pose-speed.json"))
     args = ap.parse_args()
     if args.measure:
-        print(json.dumps(_measure(args.data, args.pairs, args.seeds, args.noise, args.measure)))
+        print(json.dumps(_measure(args.data, args.pairs, args.seeds, args.noise, args.measure, args.max_pixels)))
         return 0
     if not os.path.isdir(args.data):
         raise SystemExit(f"--data: {args.data!r} is not a folder; render the benchmark first "
@@ -164,7 +171,8 @@ def main() -> int:
     import numpy as np
 
     out = {"benchmark": "pose-speed", "meta": metadata(), "pairs": args.pairs, "seeds": args.seeds,
-           "noise_px": args.noise, "rounds": args.rounds, "compare": args.compare, "results": {}}
+           "noise_px": args.noise, "max_pixels": args.max_pixels, "rounds": args.rounds, "compare": args.compare,
+           "results": {}}
     for w, by_code in runs.items():
         row = {c: {"total_seconds": [x["total"] for x in xs], "median_item_seconds": [x["median"] for x in xs],
                    "median_seconds_by_pair": _by_pair(xs, args.pairs),
