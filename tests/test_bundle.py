@@ -129,6 +129,17 @@ def _random_steps(pb, y, rng, n):
         yield S, g, Hym, gm, Hmm_d, np.linalg.solve(S, -g), _solve_step(pb, A, b, e, w, 0.0, y, np.zeros(pb.N))
 
 
+def _same_step(dy, ref):
+    """Two steps equal to the solver's precision (relative to the larger component of ``ref``)."""
+    return np.allclose(dy, ref, rtol=1e-7, atol=1e-9 * np.abs(ref).max())
+
+
+def _depths_follow(pb, dy, dmu, terms):
+    """Each depth's step is the back-substitution of ``dy`` (``terms``: ``Hym, gm, Hmm_d``)."""
+    Hym, gm, Hmm_d = terms
+    return np.allclose(dmu, -(gm + np.sum(Hym * dy[pb.cols], axis=1)) / Hmm_d)
+
+
 def _minimiser_on(S, g, c, rhs):
     """The minimiser of ``dy' S dy / 2 + g' dy`` subject to ``c' dy = rhs`` (KKT system)."""
     K = np.block([[S, c[:, None]], [c[None, :], np.zeros((1, 1))]])
@@ -153,13 +164,13 @@ def test_a_step_against_a_bound_is_the_step_on_the_bound():
             C = np.zeros(pb.ny)
             C[i0], C[5] = 1.0, -y[i0]
             ref = _minimiser_on(S, g, C, 0.0)
-            assert np.allclose(dy, ref, rtol=1e-7, atol=1e-9 * np.abs(ref).max())
+            assert _same_step(dy, ref)
             assert np.abs(dy - dy_free).max() > 1e-3 * np.abs(dy_free).max()
             pushed += 1
         else:
-            assert np.allclose(dy, dy_free, rtol=1e-7, atol=1e-9 * np.abs(dy_free).max())
+            assert _same_step(dy, dy_free)
             free += 1
-        assert np.allclose(dmu, -(gm + np.sum(Hym * dy[pb.cols], axis=1)) / Hmm_d)
+        assert _depths_follow(pb, dy, dmu, (Hym, gm, Hmm_d))
     assert pushed >= 10 and free >= 10
 
 
@@ -179,13 +190,13 @@ def test_a_step_that_carries_a_line_past_infinity_puts_it_on_its_bound():
     for S, g, Hym, gm, Hmm_d, dy_free, (dy, dmu) in _random_steps(pb, y, rng, 60):
         if y[i1] + dy_free[i1] < pb.rho_min:
             ref = _minimiser_on(S, g, np.eye(pb.ny)[i1], pb.rho_min - y[i1])
-            assert np.allclose(dy, ref, rtol=1e-7, atol=1e-9 * np.abs(ref).max())
+            assert _same_step(dy, ref)
             assert np.isclose(y[i1] + dy[i1], pb.rho_min, rtol=1e-9, atol=0.0)
             onto += 1
         else:
-            assert np.allclose(dy, dy_free, rtol=1e-7, atol=1e-9 * np.abs(dy_free).max())
+            assert _same_step(dy, dy_free)
             free += 1
-        assert np.allclose(dmu, -(gm + np.sum(Hym * dy[pb.cols], axis=1)) / Hmm_d)
+        assert _depths_follow(pb, dy, dmu, (Hym, gm, Hmm_d))
     assert onto >= 10 and free >= 10
 
 
