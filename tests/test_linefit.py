@@ -535,3 +535,33 @@ def test_planes_refined_together_are_each_line_s_own_to_the_bit():
         m = line == g
         alone = refine_planes(rays.take(m), np.zeros(m.sum(), dtype=int), mask[m], 1)
         np.testing.assert_array_equal(together[g], alone[0])
+
+
+def test_ransac_planes_draw_each_line_s_samples_as_written():
+    """``_ransac_planes`` draws each line's pairs as the first two of each random order (argsort of
+    ``rng.random((64, M))`` per round, a fresh Generator from an int seed per line), scores every
+    hypothesis by ``sum min(d^2, thr^2)`` over the line's own rays and keeps the lowest:
+    the model written out here gives the same normal, to the bit, for every line."""
+    from catadioptric.linefit.central import _ransac_planes
+    from catadioptric.linefit.planes import pixel_rays_with_jacobian, plane_distances
+
+    cam = _cam("hyperboloid_central")
+    _, clean, _ = family_pixels(cam, *FAMILIES["hyperboloid_central"])
+    rng = np.random.default_rng(13)
+    sets = [u + rng.normal(0.0, 1.0, u.shape) for u in clean]
+    rays = pixel_rays_with_jacobian(cam, np.concatenate(sets))
+    line = np.repeat(np.arange(len(sets)), [len(u) for u in sets])
+    keep = rays.ok
+    rays, line = rays.take(keep), line[keep]
+    counts = np.bincount(line, minlength=len(sets))
+    thr, trials = 3.0, 100
+    best = _ransac_planes(rays, line, counts, 5, thr, trials)
+    assert len(sets) >= 3 and np.all(np.isfinite(best))
+    for g in range(len(sets)):
+        own = rays.take(line == g)
+        draw = np.random.default_rng(5)
+        idx = np.concatenate([np.argsort(draw.random((64, counts[g])), axis=1)[:, :2] for _ in range(2)])
+        hyp = np.cross(own.d[idx[:, 0]], own.d[idx[:, 1]])
+        hyp /= np.linalg.norm(hyp, axis=1, keepdims=True)
+        cost = np.sum(np.minimum(plane_distances(hyp, own) ** 2, thr**2), axis=1)
+        np.testing.assert_array_equal(best[g], hyp[np.argmin(cost)])
