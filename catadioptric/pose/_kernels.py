@@ -10,6 +10,9 @@ and cached, like :mod:`catadioptric.solvers._kernels`:
   10 unknowns and its depth (:meth:`catadioptric.pose.two_view_problem.Problem.jacobian`
   documents them), from its image's derivative by its point and the per-family and per-line
   derivatives of the point.
+* :func:`first_order_residuals` and :func:`first_order_jacobians`, of the two-view refinement's
+  first-order residuals (:mod:`catadioptric.pose.two_view_rays`): each pixel's ray against its
+  line, one pixel at a time, and their derivatives by its 10 unknowns.
 * :func:`alignment_table`, of the lines matched in their order
   (:class:`catadioptric.pose.matching.LinesInOrder`): the dynamic programme of a monotone alignment.
 * :func:`neighbour_costs`, of the RANSAC by neighbours (:func:`catadioptric.pose.matching.match_lines`):
@@ -23,7 +26,8 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["reduced_normal_equations", "pixel_jacobians", "alignment_table", "neighbour_costs"]
+__all__ = ["reduced_normal_equations", "pixel_jacobians", "first_order_residuals", "first_order_jacobians",
+           "alignment_table", "neighbour_costs"]
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -188,3 +192,183 @@ def neighbour_costs(T, A, p, q, starts, n_rays, var, c2, cos_parallax):
             total += best
         out[h] = total + rest
     return out
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _line_in_view(n, owner, fam, in_b, k, rho, u, dirs, R, that, ca, cb, Q, sv):
+    """Pixel ``n``'s line in its own view's frame: its point at depth 0 ``Q`` and direction ``sv``
+    (``dirs (F, 3)``: the families' directions in A)."""
+    ln = owner[n]
+    f = fam[ln]
+    r = rho[ln]
+    if in_b[n]:
+        for i in range(3):
+            Q[i] = k * ((R[i, 0] * u[ln, 0] + R[i, 1] * u[ln, 1] + R[i, 2] * u[ln, 2]) / r + that[i]) + cb[i]
+            sv[i] = R[i, 0] * dirs[f, 0] + R[i, 1] * dirs[f, 1] + R[i, 2] * dirs[f, 2]
+    else:
+        for i in range(3):
+            Q[i] = ca[i] + k * u[ln, i] / r
+            sv[i] = dirs[f, i]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def first_order_residuals(o, d, Jo, Jd, owner, fam, in_b, k, rho, u, dirs, R, that, ca, cb, e, mu):
+    """``e (N, 2)`` and ``mu (N,)`` filled in place: each pixel's first-order image distance to its
+    line (:mod:`catadioptric.pose.two_view_rays`), signed, in ``e[:, 0]`` (``e[:, 1]`` zero; NaN
+    where its ray is not finite, parallel to the line or meets it behind its origin) and the depth
+    (the unknowns' ``mu``) of the line's point nearest its ray (0 where none). ``o, d (N, 3)``,
+    ``Jo, Jd (N, 3, 2)``: each pixel's ray in its own view's frame and their derivatives by the
+    pixel; the rest as :func:`pixel_jacobians`'s, ``u (L, 3)`` each line's foot direction,
+    ``dirs (F, 3)`` the families' directions in A, ``ca``, ``cb`` the views' centres."""
+    N = o.shape[0]
+    Q = np.empty(3)
+    sv = np.empty(3)
+    for n in range(N):
+        _line_in_view(n, owner, fam, in_b, k, rho, u, dirs, R, that, ca, cb, Q, sv)
+        w0 = Q[0] - o[n, 0]
+        w1 = Q[1] - o[n, 1]
+        w2 = Q[2] - o[n, 2]
+        b = sv[0] * d[n, 0] + sv[1] * d[n, 1] + sv[2] * d[n, 2]
+        ws = sv[0] * w0 + sv[1] * w1 + sv[2] * w2
+        wd = d[n, 0] * w0 + d[n, 1] * w1 + d[n, 2] * w2
+        den = 1.0 - b * b
+        lam = (wd - b * ws) / den
+        mus = (b * wd - ws) / den
+        m0 = d[n, 1] * sv[2] - d[n, 2] * sv[1]
+        m1 = d[n, 2] * sv[0] - d[n, 0] * sv[2]
+        m2 = d[n, 0] * sv[1] - d[n, 1] * sv[0]
+        mm = math.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
+        n0, n1, n2 = m0 / mm, m1 / mm, m2 / mm
+        delta = n0 * w0 + n1 * w1 + n2 * w2
+        gg = 0.0
+        for i in range(2):
+            gi = -((Jo[n, 0, i] + lam * Jd[n, 0, i]) * n0 + (Jo[n, 1, i] + lam * Jd[n, 1, i]) * n1
+                   + (Jo[n, 2, i] + lam * Jd[n, 2, i]) * n2)
+            gg += gi * gi
+        gn = math.sqrt(gg)
+        m_n = mus * rho[owner[n]] / k
+        mu[n] = m_n if math.isfinite(m_n) else 0.0
+        if math.isfinite(delta) and math.isfinite(gn) and gn > 0.0 and lam > 0.0:
+            e[n, 0] = delta / gn
+            e[n, 1] = 0.0
+        else:
+            e[n, 0] = np.nan
+            e[n, 1] = np.nan
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def first_order_jacobians(o, d, Jo, Jd, owner, fam, in_b, k, rho, u, du, fam_dirs, R, that, dthat, ca, cb, mu, A):
+    """``A (N, 2, 10)`` filled in place: the derivative of each pixel's first-order image distance
+    (:func:`first_order_residuals`, at the depths ``mu`` it gave) by its 10 unknowns, the columns
+    of :func:`pixel_jacobians` (row 1 zero; zero rows where the distance is not finite). The
+    distance is ``delta / |g|``: ``delta`` the signed distance between the pixel's ray and its
+    line along their common normal ``n``, ``g = -(Jo + lam Jd)' n`` its derivative by the pixel
+    (``lam``: the depth along the ray of its point nearest the line); both are differentiated,
+    ``lam`` and ``n`` moving with the line. ``du (L, 3)``: each line's foot's derivative by its
+    angle; ``fam_dirs (F, 3, 3)``, ``dthat (2, 3)`` as :func:`pixel_jacobians`'s."""
+    N = o.shape[0]
+    Q = np.empty(3)
+    sv = np.empty(3)
+    dX = np.empty((10, 3))
+    dS = np.empty((10, 3))
+    V = np.empty(3)
+    RV = np.empty(3)
+    M = np.empty((3, 2))
+    g = np.empty(2)
+    nv = np.empty(3)
+    dirs = fam_dirs[:, 0, :]
+    for n in range(N):
+        for i in range(2):
+            for j in range(10):
+                A[n, i, j] = 0.0
+        _line_in_view(n, owner, fam, in_b, k, rho, u, dirs, R, that, ca, cb, Q, sv)
+        ln = owner[n]
+        f = fam[ln]
+        r = rho[ln]
+        w0 = Q[0] - o[n, 0]
+        w1 = Q[1] - o[n, 1]
+        w2 = Q[2] - o[n, 2]
+        b = sv[0] * d[n, 0] + sv[1] * d[n, 1] + sv[2] * d[n, 2]
+        ws = sv[0] * w0 + sv[1] * w1 + sv[2] * w2
+        wd = d[n, 0] * w0 + d[n, 1] * w1 + d[n, 2] * w2
+        den = 1.0 - b * b
+        lam = (wd - b * ws) / den
+        m0 = d[n, 1] * sv[2] - d[n, 2] * sv[1]
+        m1 = d[n, 2] * sv[0] - d[n, 0] * sv[2]
+        m2 = d[n, 0] * sv[1] - d[n, 1] * sv[0]
+        mm = math.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
+        nv[0], nv[1], nv[2] = m0 / mm, m1 / mm, m2 / mm
+        delta = nv[0] * w0 + nv[1] * w1 + nv[2] * w2
+        for kk in range(3):
+            for i in range(2):
+                M[kk, i] = Jo[n, kk, i] + lam * Jd[n, kk, i]
+        gg = 0.0
+        for i in range(2):
+            g[i] = -(M[0, i] * nv[0] + M[1, i] * nv[1] + M[2, i] * nv[2])
+            gg += g[i] * g[i]
+        gn = math.sqrt(gg)
+        if not (math.isfinite(delta) and math.isfinite(gn) and gn > 0.0 and lam > 0.0):
+            continue
+        # the line's point at the pixel's depth (over k, from c_A) and each column's moves of the
+        # point dX and of the direction dS, in A's frame first
+        for i in range(3):
+            V[i] = (u[ln, i] + mu[n] * fam_dirs[f, 0, i]) / r
+        for c in range(10):
+            for i in range(3):
+                dX[c, i] = 0.0
+                dS[c, i] = 0.0
+        km = k * mu[n] / r
+        for i in range(3):
+            dX[5, i] = k * V[i]
+            dX[6, i] = km * fam_dirs[f, 1, i]
+            dX[7, i] = km * fam_dirs[f, 2, i]
+            dS[6, i] = fam_dirs[f, 1, i]
+            dS[7, i] = fam_dirs[f, 2, i]
+            dX[8, i] = k * du[ln, i] / r
+            dX[9, i] = -k * V[i] / r
+        if in_b[n]:
+            for c in range(5, 10):
+                x0, x1, x2 = dX[c, 0], dX[c, 1], dX[c, 2]
+                s0, s1, s2 = dS[c, 0], dS[c, 1], dS[c, 2]
+                for i in range(3):
+                    dX[c, i] = R[i, 0] * x0 + R[i, 1] * x1 + R[i, 2] * x2
+                    dS[c, i] = R[i, 0] * s0 + R[i, 1] * s1 + R[i, 2] * s2
+            for i in range(3):
+                dX[5, i] += k * that[i]
+                RV[i] = k * (R[i, 0] * V[0] + R[i, 1] * V[1] + R[i, 2] * V[2])
+            # a left rotation by e_c: the point and the direction turn about e_c
+            dX[0, 0], dX[0, 1], dX[0, 2] = 0.0, -RV[2], RV[1]
+            dX[1, 0], dX[1, 1], dX[1, 2] = RV[2], 0.0, -RV[0]
+            dX[2, 0], dX[2, 1], dX[2, 2] = -RV[1], RV[0], 0.0
+            dS[0, 0], dS[0, 1], dS[0, 2] = 0.0, -sv[2], sv[1]
+            dS[1, 0], dS[1, 1], dS[1, 2] = sv[2], 0.0, -sv[0]
+            dS[2, 0], dS[2, 1], dS[2, 2] = -sv[1], sv[0], 0.0
+            for i in range(3):
+                dX[3, i] = k * dthat[0, i]
+                dX[4, i] = k * dthat[1, i]
+        jn0 = Jd[n, 0, 0] * nv[0] + Jd[n, 1, 0] * nv[1] + Jd[n, 2, 0] * nv[2]
+        jn1 = Jd[n, 0, 1] * nv[0] + Jd[n, 1, 1] * nv[1] + Jd[n, 2, 1] * nv[2]
+        ok = True
+        for c in range(10):
+            ddelta = nv[0] * dX[c, 0] + nv[1] * dX[c, 1] + nv[2] * dX[c, 2]
+            nds = nv[0] * dS[c, 0] + nv[1] * dS[c, 1] + nv[2] * dS[c, 2]
+            dlam = ((d[n, 0] - b * sv[0]) * dX[c, 0] + (d[n, 1] - b * sv[1]) * dX[c, 1]
+                    + (d[n, 2] - b * sv[2]) * dX[c, 2] - b * delta * nds) / den
+            # the common normal's move: (I - n n') (d x dS) / |d x s|
+            c0 = d[n, 1] * dS[c, 2] - d[n, 2] * dS[c, 1]
+            c1 = d[n, 2] * dS[c, 0] - d[n, 0] * dS[c, 2]
+            c2 = d[n, 0] * dS[c, 1] - d[n, 1] * dS[c, 0]
+            ncr = nv[0] * c0 + nv[1] * c1 + nv[2] * c2
+            dn0 = (c0 - ncr * nv[0]) / mm
+            dn1 = (c1 - ncr * nv[1]) / mm
+            dn2 = (c2 - ncr * nv[2]) / mm
+            dg0 = -jn0 * dlam - (M[0, 0] * dn0 + M[1, 0] * dn1 + M[2, 0] * dn2)
+            dg1 = -jn1 * dlam - (M[0, 1] * dn0 + M[1, 1] * dn1 + M[2, 1] * dn2)
+            dgn = (g[0] * dg0 + g[1] * dg1) / gn
+            a = ddelta / gn - delta * dgn / (gn * gn)
+            if not math.isfinite(a):
+                ok = False
+            A[n, 0, c] = a
+        if not ok:
+            for c in range(10):
+                A[n, 0, c] = 0.0

@@ -2,9 +2,12 @@
 family directions and lines, jointly, by minimising the pixel distances in both views.
 
 The unknowns (pose, family directions, lines in inverse-distance coordinates, one depth per
-pixel) and the residuals are in :mod:`catadioptric.pose.two_view_problem`. The depths are
-eliminated in closed form at every step (each touches two residuals), so each
-Levenberg-Marquardt step solves one dense system of ``6 + 2 F + 2 L`` unknowns. A robust
+pixel) are in :mod:`catadioptric.pose.two_view_problem`. The residuals (:attr:`TwoViewOptions.residuals`)
+are by default each pixel's first-order image distance to its line, from its ray
+(:mod:`catadioptric.pose.two_view_rays`: each depth solved in closed form at every evaluation,
+no projection), or the exact distance to the image of the line's point at the pixel's depth
+(the depths then unknowns, eliminated in closed form at every step: each touches two
+residuals). Each Levenberg-Marquardt step solves one dense system of ``6 + 2 F + 2 L`` unknowns. A robust
 (Cauchy) reweighting is followed by a plain least-squares polish on the inliers, whose
 inverse Schur complement gives the covariance of ``(w, t)``.
 """
@@ -19,8 +22,12 @@ from ..linefit._common import HALF_NORMAL_MEDIAN
 from ._kernels import reduced_normal_equations
 from .meetings import check_corners
 from .two_view_problem import MU_MAX, Problem
+from .two_view_rays import RayProblem
 
-__all__ = ["TwoViewData", "TwoViewStart", "TwoViewOptions", "TwoViewFit", "refine_two_view"]
+__all__ = ["TwoViewData", "TwoViewStart", "TwoViewOptions", "TwoViewFit", "refine_two_view", "RESIDUALS"]
+
+#: the residuals a two-view refinement can minimise (:attr:`TwoViewOptions.residuals`), and their problems
+RESIDUALS = {"first_order": RayProblem, "image": Problem}
 
 
 @dataclass(frozen=True)
@@ -77,10 +84,16 @@ class TwoViewOptions:
     inlier_sigmas: float = 3.5
     #: each stage stops when a step lowers its cost by less than this (chi-square units)
     tol_chi2: float = 0.01
-    #: each step's images continued from the last accepted state's reflection points (False:
-    #: every image searched anew each time, slower)
+    #: the pixels' residuals: "first_order", each pixel's first-order image distance to its line,
+    #: from its ray, no projection (:mod:`~catadioptric.pose.two_view_rays`); "image", the exact
+    #: distance to the image of the line's point at the pixel's depth, a depth per pixel carried
+    #: as an unknown (:mod:`~catadioptric.pose.two_view_problem`; slower)
+    residuals: str = "first_order"
+    #: with "image" residuals: each step's images continued from the last accepted state's
+    #: reflection points (False: every image searched anew each time, slower)
     warm_start: bool = True
-    #: each trial step judged at its depths re-solved (slower, not better on the benchmark)
+    #: with "image" residuals: each trial step judged at its depths re-solved (slower, not better
+    #: on the benchmark)
     settle_depths: bool = False
     #: both stages hold the scene's scale where the start's translation puts it
     hold_scale: bool = False
@@ -365,6 +378,8 @@ def refine_two_view(data: TwoViewData, start: TwoViewStart, options: TwoViewOpti
     tests/test_relative_pose.py at 1 px, held at 64 m, 1.24 degree (0.07 free).
     """
     o = options
+    if not isinstance(o.residuals, str) or o.residuals not in RESIDUALS:
+        raise CatadioptricError(f"residuals: expected one of {', '.join(map(repr, RESIDUALS))}, got {o.residuals!r}")
     cam_a, cam_b, line_family = data.cam_a, data.cam_b, data.line_family
     uv_a = np.asarray(data.uv_a, float).reshape(-1, 2)
     uv_b = np.asarray(data.uv_b, float).reshape(-1, 2)
@@ -380,8 +395,8 @@ def refine_two_view(data: TwoViewData, start: TwoViewStart, options: TwoViewOpti
         centres = (_rays_centre(cam_a, uv_a), _rays_centre(cam_b, uv_b))
     corners, corner_sigma = check_corners(data.corners, data.corner_sigma, np.asarray(line_family, int).reshape(-1))
     R = np.asarray(start.R, float)
-    pb = Problem(cam_a, cam_b, np.asarray(start.directions, float), np.asarray(start.points, float), line_family, uv,
-                 owner, view, centres, R, start.t, o.warm_start, corners, corner_sigma)
+    pb = RESIDUALS[o.residuals](cam_a, cam_b, np.asarray(start.directions, float), np.asarray(start.points, float),
+                                line_family, uv, owner, view, centres, R, start.t, o.warm_start, corners, corner_sigma)
     y = pb.start()
     # starting depths: each pixel's ray closest to its line (B's rays moved into A)
     s, _, _, rho, u, _, _, k = pb.parts(y)
