@@ -371,8 +371,8 @@ def test_a_motion_prior_rules_out_the_symmetric_answers():
 
 @pytest.mark.parametrize("name", ["hyperboloid", "sphere", "ellipsoid"])
 def test_images_continued_between_steps_give_the_searched_answer(name, monkeypatch):
-    """The refinement continues each image from the last step's reflection point
-    (``warm_start``); searching every image anew at each step gives the same pose, within what the
+    """The refinement on the exact images (``residuals="image"``) continues each image from the
+    last step's reflection point (``warm_start``); searching every image anew at each step gives the same pose, within what the
     refinement's stopping rule guarantees (the two differ in the last digits of the images, so
     their steps differ, and each stops somewhere within its tolerance of the same minimum).
 
@@ -402,11 +402,15 @@ def test_images_continued_between_steps_give_the_searched_answer(name, monkeypat
 
     bound = 2.0 * np.sqrt(bundle.TwoViewOptions().tol_chi2)
     va, vb, R_gt, t_gt = _pair(name, noise=1.0, seed=4)
-    warm = relative_pose(va, vb)
-    monkeypatch.setattr(scale, "refine_two_view",
-                        lambda data, start, options: bundle.refine_two_view(data, start,
-                                                                            replace(options, warm_start=False)))
-    cold = relative_pose(va, vb)
+
+    def on_images(warm_start):
+        with monkeypatch.context() as mp:
+            mp.setattr(scale, "refine_two_view",
+                       lambda data, start, options: bundle.refine_two_view(
+                           data, start, replace(options, residuals="image", warm_start=warm_start)))
+            return relative_pose(va, vb)
+
+    warm, cold = on_images(True), on_images(False)
     r_sd = np.sqrt(np.linalg.eigvalsh(warm.cov[:3, :3]).max())
     dr = np.radians(rotation_angle_deg(warm.R @ cold.R.T))
     assert dr < bound * r_sd, (dr, r_sd)
