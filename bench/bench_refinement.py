@@ -1,16 +1,18 @@
 """Two-view refinement benchmark: seconds per draw of the exact model's relative pose on rendered
-benchmark pairs, with the refinement's stopping tolerance ``tol_chi2`` at each value given, in
-one run (the values alternate pair by pair, so a shared machine's load falls on all of them).
+benchmark pairs, with the refinement's residuals (``--residuals``: first-order distances from
+the rays, or the exact images) and its stopping tolerance ``tol_chi2`` at each value given, in
+one run (the variants alternate pair by pair, so a shared machine's load falls on all of them).
 
     .venv/bin/python bench/bench_refinement.py [--data render/out/relative_pose_benchmark]
-        [--configs hyperboloid,sphere] [--pairs 8] [--noise 2] [--tol 0 0.01] [--cold] [--settle]
+        [--configs hyperboloid,sphere] [--pairs 8] [--noise 2] [--tol 0.01]
+        [--residuals first_order image] [--cold] [--settle]
 
 Needs the benchmark's rendered datasets (`catadioptric validate benchmark ... --data DIR` renders
 them). Same pixels, draws and seeds as the benchmark (spec validate/relative_pose.toml); the
-central baseline is not run. Writes bench/results/refinement.json: per variant (a tolerance, with
-the images continued from the last step's reflection points; with ``--cold`` also searched
-anew at each step; with ``--settle`` also each trial's depths re-solved) the median seconds per
-draw, the summed seconds, the median rotation and
+central baseline is not run. Writes bench/results/refinement.json: per variant (residuals and a
+tolerance; with the images, continued from the last step's reflection points, and with ``--cold``
+also searched anew at each step, with ``--settle`` also each trial's depths re-solved) the median
+seconds per draw, the summed seconds, the median rotation and
 translation-direction errors, and per pair the raw figures; the ratio of summed seconds to the
 first variant's. Standalone (not in bench/run.py: it needs the rendered datasets).
 """
@@ -31,16 +33,18 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 
 
-def _with_options(tol, warm, settle, fn, *args, **kw):
+def _with_options(variant, fn, *args, **kw):
     """``fn(*args, **kw)`` with every two-view refinement (those of ``pose.scale.refine_far_or_free``)
-    run with ``tol_chi2``, ``warm_start`` and ``settle_depths`` set in its options."""
+    run with ``residuals``, ``tol_chi2``, ``warm_start`` and ``settle_depths`` set in its options
+    as ``variant`` (a row of :func:`_variants`) says."""
+    _, residuals, tol, warm, settle = variant
     from dataclasses import replace
 
     from catadioptric.pose import bundle, scale
 
     def refine(data, start, options=bundle.TwoViewOptions()):
-        return bundle.refine_two_view(data, start, replace(options, tol_chi2=float(tol), warm_start=bool(warm),
-                                                           settle_depths=bool(settle)))
+        return bundle.refine_two_view(data, start, replace(options, residuals=residuals, tol_chi2=float(tol),
+                                                           warm_start=bool(warm), settle_depths=bool(settle)))
 
     real = scale.refine_two_view
     scale.refine_two_view = refine
@@ -50,23 +54,25 @@ def _with_options(tol, warm, settle, fn, *args, **kw):
         scale.refine_two_view = real
 
 
-def _variants(tols, cold, settle):
-    """``(key, tol, warm, settle)`` of each variant: every tolerance with warm starts; also without
-    them if ``cold``; also with each trial's depths re-solved if ``settle``."""
-    out = [(f"tol={t:g} warm", t, True, False) for t in tols]
-    if cold:
-        out += [(f"tol={t:g} cold", t, False, False) for t in tols]
-    if settle:
-        out += [(f"tol={t:g} warm settle", t, True, True) for t in tols]
+def _variants(tols, residuals, cold, settle):
+    """``(key, residuals, tol, warm, settle)`` of each variant: every residual at every tolerance
+    (the images continued from the last step's); with the images also searched anew if ``cold``,
+    also with each trial's depths re-solved if ``settle``."""
+    out = [(f"{r} tol={t:g}", r, t, True, False) for r in residuals for t in tols]
+    if "image" in residuals and cold:
+        out += [(f"image tol={t:g} cold", "image", t, False, False) for t in tols]
+    if "image" in residuals and settle:
+        out += [(f"image tol={t:g} settle", "image", t, True, True) for t in tols]
     return out
 
 
-def run(data, configs=("hyperboloid", "sphere"), n_pairs=8, noise=2.0, tols=(0.0, 0.01), cold=False, settle=False) -> dict:
+def run(data, configs=("hyperboloid", "sphere"), n_pairs=8, noise=2.0, tols=(0.01,), residuals=("first_order", "image"),
+        cold=False, settle=False) -> dict:
     from catadioptric.validate.benchmark import dataset_folder
     from catadioptric.validate.benchmark_spec import load_benchmark_spec, pairs_of
     from catadioptric.validate.relative_pose import evaluate_pair
 
-    variants = _variants(tols, cold, settle)
+    variants = _variants(tols, residuals, cold, settle)
     spec = load_benchmark_spec(os.path.join(ROOT, "validate", "relative_pose.toml"))
     by_name = {c["name"]: c for c in spec["configs"]}
     unknown = [c for c in configs if c not in by_name]
@@ -80,9 +86,10 @@ def run(data, configs=("hyperboloid", "sphere"), n_pairs=8, noise=2.0, tols=(0.0
                 raise SystemExit(f"--data: no dataset {folder} (render the benchmark first: catadioptric validate "
                                  f"benchmark --data {data} --out DIR)")
             row = {"config": name, "pair": pair.index, "renderer": pair.renderer, "runs": {}}
-            for key, tol, warm, settle_on in variants:
+            for variant in variants:
+                key = variant[0]
                 t0 = time.perf_counter()
-                res = _with_options(tol, warm, settle_on, evaluate_pair, folder, pair.names, noise_levels=(noise,),
+                res = _with_options(variant, evaluate_pair, folder, pair.names, noise_levels=(noise,),
                                     draws=spec["draws"], seed=[spec["seed"], pair.index], pixels=spec["pixels"],
                                     min_pixels=spec["min_pixels"], max_pixels=spec["max_pixels"], central=False)
                 d = res["draws"]
@@ -110,7 +117,7 @@ def run(data, configs=("hyperboloid", "sphere"), n_pairs=8, noise=2.0, tols=(0.0
         s["time_ratio_to_first"] = s["seconds_sum"] / base
     shown = os.path.relpath(data, ROOT) if os.path.abspath(data).startswith(ROOT + os.sep) else data
     return {"data": shown, "configs": list(configs), "pairs": n_pairs, "noise_px": noise, "tols": list(tols),
-            "cold": cold, "settle": settle,
+            "residuals": list(residuals), "cold": cold, "settle": settle,
             "summary": summary, "rows": rows, "loadavg": list(os.getloadavg())}
 
 
@@ -120,14 +127,16 @@ def main() -> int:
     ap.add_argument("--configs", default="hyperboloid,sphere")
     ap.add_argument("--pairs", type=int, default=8, help="first N pairs of each configuration (default 8)")
     ap.add_argument("--noise", type=float, default=2.0, help="pixel noise (default 2)")
-    ap.add_argument("--tol", type=float, nargs="+", default=[0.0, 0.01], help="tol_chi2 values (default 0 0.01)")
+    ap.add_argument("--tol", type=float, nargs="+", default=[0.01], help="tol_chi2 values (default 0.01)")
+    ap.add_argument("--residuals", nargs="+", choices=["first_order", "image"], default=["first_order", "image"],
+                    help="the refinement's residuals (default both: the first the ratios' base)")
     ap.add_argument("--cold", action="store_true",
-                    help="also each tolerance with warm_start=False (every image searched anew at each step)")
+                    help="also the images at each tolerance with warm_start=False (every image searched anew)")
     ap.add_argument("--settle", action="store_true",
-                    help="also each tolerance with settle_depths=True (each trial's depths re-solved)")
+                    help="also the images at each tolerance with settle_depths=True (each trial's depths re-solved)")
     args = ap.parse_args()
-    res = run(args.data, tuple(args.configs.split(",")), args.pairs, args.noise, tuple(args.tol), args.cold,
-              args.settle)
+    res = run(args.data, tuple(args.configs.split(",")), args.pairs, args.noise, tuple(args.tol),
+              tuple(args.residuals), args.cold, args.settle)
     out = os.path.join(HERE, "results", "refinement.json")
     write_json(out, {"benchmark": "refinement", "meta": metadata(), **res})
     for t, s in res["summary"].items():

@@ -11,7 +11,7 @@ between two views ``x_B = R x_A + t`` (mirror frames). Lines are Pluecker ``(s, 
 | `sign_candidates` | `signs.py` | directions known up to sign | the sign patterns a rotation fits, refined |
 | `translation_from_lines` | `translation.py` | R, world lines, rays of their pixels | t (absolute pose) |
 | `relative_translation_from_lines` | `translation.py` | R, lines fitted in each view, rays of both | t (metric, non-central) |
-| `refine_two_view` | `bundle.py` (its unknowns and residuals: `two_view_problem.py`) | `TwoViewData` (cameras, pixels of both views, their lines' families), `TwoViewStart` (R, t, lines), `TwoViewOptions` | R, t, lines, covariance (non-central) |
+| `refine_two_view` | `bundle.py` (its unknowns and image residuals: `two_view_problem.py`; its first-order residuals, the default: `two_view_rays.py`) | `TwoViewData` (cameras, pixels of both views, their lines' families), `TwoViewStart` (R, t, lines), `TwoViewOptions` | R, t, lines, covariance (non-central) |
 | `refine_far_or_free` | `scale.py` | as `refine_two_view`, `ScaleOptions` | its fit with the scene held far (the rig's central limit), or free where the pixels fix the scale |
 | `translation_direction_from_crossings` | `central.py` | R, planes of the lines matched in both views | direction between the views' centres |
 | `refine_with_crossings` | `epipolar.py` | directions with covariances, inlier meeting rays, R | R and the direction between the centres refined together, covariance |
