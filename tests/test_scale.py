@@ -266,3 +266,19 @@ def test_a_start_far_too_long_keeps_every_line_in_front_of_both_views(monkeypatc
             if np.median(ray_depths(points0[line], s, o, d)) <= 0:
                 behind.append((line, "AB"[view]))
     assert behind == []
+
+
+def test_the_residuals_asked_reach_both_refinements(monkeypatch):
+    """``relative_pose(residuals=...)`` sets the residuals of both two-view refinements (the free
+    and the far one); first-order by default; any other name is refused, named."""
+    va, vb, R_gt, t_gt = _pair("hyperboloid", noise=1.0, seed=4)
+    calls = _spy(monkeypatch)
+    relative_pose(va, vb, residuals="image")
+    assert calls and len(calls) % 2 == 0 and {c[0].residuals for c in calls} == {"image"}
+    assert {c[0].hold_scale for c in calls} == {True, False}
+    calls.clear()
+    relative_pose(va, vb)
+    assert calls and {c[0].residuals for c in calls} == {"first_order"}
+    with pytest.raises(CatadioptricError, match=re.escape("residuals: expected one of 'first_order', 'image', "
+                                                          "got 'exact'")):
+        relative_pose(va, vb, residuals="exact")

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .._checks import CatadioptricError, as_count, as_scalar
-from .bundle import TwoViewData, TwoViewFit, TwoViewOptions, TwoViewStart
+from .bundle import RESIDUALS, TwoViewData, TwoViewFit, TwoViewOptions, TwoViewStart
 from .central import (CrossingFit, Parallax, meeting_rays, parallax, residual_weights, rotation_twins,
                       translation_direction_from_crossings)
 from .epipolar import refine_with_crossings
@@ -102,6 +102,8 @@ class PoseOptions:
     #: the free and the far refinement side by side in two threads, or one after the other (1)
     #: (:attr:`~catadioptric.pose.scale.ScaleOptions.threads`)
     threads: int = 2
+    #: the two-view refinement's residuals (:attr:`~catadioptric.pose.bundle.TwoViewOptions.residuals`)
+    residuals: str = "first_order"
 
     def checked(self) -> PoseOptions:
         """These options with each number checked (a one-line error naming a bad one) and made a float."""
@@ -117,6 +119,9 @@ class PoseOptions:
                 raise CatadioptricError(f"{name}: expected a non-negative number of pixels, got {v}")
             ok[name] = v
         ok["threads"] = as_count(self.threads, "threads", minimum=1, maximum=2)
+        if not isinstance(self.residuals, str) or self.residuals not in RESIDUALS:
+            raise CatadioptricError(f"residuals: expected one of {', '.join(map(repr, RESIDUALS))}, "
+                                    f"got {self.residuals!r}")
         return replace(self, **ok)
 
 
@@ -424,7 +429,8 @@ def _noncentral_candidate(cand, keys, va, vb, ea, eb, crossing, *, opts, sigma_c
                        np.concatenate(own_b), line_family=np.array([fam_index[k] for k, _, _ in lines]),
                        centres=(ea[keys[0]].centre, eb[keys[0]].centre), corners=corners, corner_sigma=corner_sigma)
     start = TwoViewStart(R, t0, dirs_a, np.array(pts))
-    options = ScaleOptions(refine=TwoViewOptions(sigma_cost=sigma_cost, pixel_sigma=pixel_sigma), threads=opts.threads)
+    options = ScaleOptions(refine=TwoViewOptions(sigma_cost=sigma_cost, pixel_sigma=pixel_sigma, residuals=opts.residuals),
+                           threads=opts.threads)
     fit = refine_far_or_free(data, start, options)
     return fit, len(matched)
 def _direction_margin(out):

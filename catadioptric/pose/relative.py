@@ -27,7 +27,7 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
                   pixel_sigma: float | None = None, decisive: float = 25.0, max_pixels: int | None = 40,
                   min_families: int = 2, max_rotation_deg: float | None = None,
                   model_error_px: float = 0.0, decisive_matching: float | None = None,
-                  calibration_rms_px: float = 0.0, threads: int = 2) -> RelativePose:
+                  calibration_rms_px: float = 0.0, threads: int = 2, residuals: str = "first_order") -> RelativePose:
     """The relative pose ``x_B = R x_A + t`` of two views from the lines they see.
 
     ``view_a``, ``view_b``: :class:`ViewLines`. ``ends``: ``{family: (hint_a, hint_b)}``, for
@@ -59,7 +59,13 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
     is within ``max_rotation_deg``. ``threads``: a non-central rig's two refinements (the scene free
     and held far, :func:`~catadioptric.pose.scale.refine_far_or_free`) side by side in two threads
     (the same answers, sooner with a core to spare), or one after the other (1: for a process among
-    others that keep every core busy, as the benchmark's workers).
+    others that keep every core busy, as the benchmark's workers). ``residuals``: those of a
+    non-central rig's two-view refinement (:attr:`~catadioptric.pose.bundle.TwoViewOptions.residuals`):
+    "first_order" (each pixel's first-order image distance to its line, from its ray) or "image"
+    (the exact images): the same rotations and translation directions on the relative-pose
+    benchmark, the first in about two thirds of the time, the second with the better metric
+    length where the pixels tell it at all (the sphere at 1 px: a median error of 1.8 m against
+    13.6 m; docs/relative_pose.md, "How good it is").
     """
     from threadpoolctl import threadpool_limits
 
@@ -67,7 +73,8 @@ def relative_pose(view_a: ViewLines, view_b: ViewLines, *, ends: dict | None = N
         raise CatadioptricError(f"view_a, view_b: expected ViewLines, got {type(view_a).__name__} and "
                                 f"{type(view_b).__name__}")
     opts = PoseOptions(seed, f_scale, pixel_sigma, decisive, max_pixels, min_families, max_rotation_deg,
-                       model_error_px, decisive_matching, calibration_rms_px, threads=threads).checked()
+                       model_error_px, decisive_matching, calibration_rms_px, threads=threads,
+                       residuals=residuals).checked()
     if is_central(view_a.cam) != is_central(view_b.cam):
         raise CatadioptricError("view_a, view_b: expected two central or two non-central cameras, got one of each")
     unmatched = all(i is None for i in view_a.line_id) or all(i is None for i in view_b.line_id)
