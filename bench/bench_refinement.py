@@ -12,9 +12,9 @@ them). Same pixels, draws and seeds as the benchmark (spec validate/relative_pos
 central baseline is not run. Writes bench/results/refinement.json: per variant (residuals and a
 tolerance; with the images, continued from the last step's reflection points, and with ``--cold``
 also searched anew at each step, with ``--settle`` also each trial's depths re-solved) the median
-seconds per draw, the summed seconds, the median rotation and
-translation-direction errors, and per pair the raw figures; the ratio of summed seconds to the
-first variant's. Standalone (not in bench/run.py: it needs the rendered datasets).
+seconds per draw, the summed seconds, the median rotation, translation-direction and
+metric-length errors, and per pair the raw figures; the ratio of summed seconds to the first
+variant's. Standalone (not in bench/run.py: it needs the rendered datasets).
 """
 from __future__ import annotations
 
@@ -97,7 +97,8 @@ def run(data, configs=("hyperboloid", "sphere"), n_pairs=8, noise=2.0, tols=(0.0
                                     "seconds_per_draw": [x["seconds"] for x in d],
                                     "rotation_error_deg": [x["rotation_error_deg"] for x in d],
                                     "translation_direction_error_deg":
-                                        [x["translation_direction_error_deg"] for x in d]}
+                                        [x["translation_direction_error_deg"] for x in d],
+                                    "translation_error_m": [x["translation_error_m"] for x in d]}
             print(f"  {name} p{pair.index:02d}: " + ", ".join(
                 f"{k}: {np.mean(row['runs'][k]['seconds_per_draw']):.2f} s/draw, "
                 f"{np.median(row['runs'][k]['rotation_error_deg']):.3f} deg" for k, *_ in variants), flush=True)
@@ -107,6 +108,7 @@ def run(data, configs=("hyperboloid", "sphere"), n_pairs=8, noise=2.0, tols=(0.0
         runs = [r["runs"][key] for r in rows]
         cat = lambda k: np.concatenate([x[k] for x in runs])
         summary[key] = {"draws": int(len(cat("seconds_per_draw"))),
+                        "translation_error_m_median": float(np.median(cat("translation_error_m"))),
                         "seconds_per_draw_median": float(np.median(cat("seconds_per_draw"))),
                         "seconds_sum": float(np.sum(cat("seconds_per_draw"))),
                         "rotation_error_deg_median": float(np.median(cat("rotation_error_deg"))),
@@ -142,7 +144,8 @@ def main() -> int:
     for t, s in res["summary"].items():
         print(f"{t}: {s['seconds_per_draw_median']:.2f} s per draw (median of {s['draws']}), time "
               f"{s['time_ratio_to_first']:.2f}x the first, rotation {s['rotation_error_deg_median']:.3f} deg, "
-              f"translation direction {s['translation_direction_error_deg_median']:.2f} deg")
+              f"translation direction {s['translation_direction_error_deg_median']:.2f} deg, "
+              f"length {s['translation_error_m_median']:.3g} m")
     print(f"wrote {os.path.relpath(out)}")
     return 0
 
