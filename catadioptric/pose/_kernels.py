@@ -195,36 +195,38 @@ def neighbour_costs(T, A, p, q, starts, n_rays, var, c2, cos_parallax):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _line_in_view(n, owner, fam, in_b, k, rho, u, dirs, R, that, ca, cb, Q, sv):
+def _line_in_view(n, owner, fam, in_b, k, rho, u, dirs, R, that, centres, Q, sv):
     """Pixel ``n``'s line in its own view's frame: its point at depth 0 ``Q`` and direction ``sv``
-    (``dirs (F, 3)``: the families' directions in A)."""
+    (``dirs (F, 3)``: the families' directions in A; ``centres (2, 3)``: ``c_A``, ``c_B``)."""
     ln = owner[n]
     f = fam[ln]
     r = rho[ln]
     if in_b[n]:
         for i in range(3):
-            Q[i] = k * ((R[i, 0] * u[ln, 0] + R[i, 1] * u[ln, 1] + R[i, 2] * u[ln, 2]) / r + that[i]) + cb[i]
+            Q[i] = k * ((R[i, 0] * u[ln, 0] + R[i, 1] * u[ln, 1] + R[i, 2] * u[ln, 2]) / r + that[i]) + centres[1, i]
             sv[i] = R[i, 0] * dirs[f, 0] + R[i, 1] * dirs[f, 1] + R[i, 2] * dirs[f, 2]
     else:
         for i in range(3):
-            Q[i] = ca[i] + k * u[ln, i] / r
+            Q[i] = centres[0, i] + k * u[ln, i] / r
             sv[i] = dirs[f, i]
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def first_order_residuals(o, d, Jo, Jd, owner, fam, in_b, k, rho, u, dirs, R, that, ca, cb, e, mu):
+def first_order_residuals(rays, owner, fam, in_b, k, rho, u, dirs, R, that, centres, e, mu):
     """``e (N, 2)`` and ``mu (N,)`` filled in place: each pixel's first-order image distance to its
     line (:mod:`catadioptric.pose.two_view_rays`), signed, in ``e[:, 0]`` (``e[:, 1]`` zero; NaN
     where its ray is not finite, parallel to the line or meets it behind its origin) and the depth
-    (the unknowns' ``mu``) of the line's point nearest its ray (0 where none). ``o, d (N, 3)``,
-    ``Jo, Jd (N, 3, 2)``: each pixel's ray in its own view's frame and their derivatives by the
-    pixel; the rest as :func:`pixel_jacobians`'s, ``u (L, 3)`` each line's foot direction,
-    ``dirs (F, 3)`` the families' directions in A, ``ca``, ``cb`` the views' centres."""
+    (the unknowns' ``mu``) of the line's point nearest its ray (0 where none). ``rays (N, 3, 6)``:
+    each pixel's ray in its own view's frame, columns ``o``, ``d`` and their derivatives by the
+    pixel ``Jo (3, 2)``, ``Jd (3, 2)``; the rest as :func:`pixel_jacobians`'s, ``u (L, 3)`` each
+    line's foot direction, ``dirs (F, 3)`` the families' directions in A, ``centres (2, 3)``
+    the views' centres ``c_A``, ``c_B``."""
+    o, d, Jo, Jd = rays[:, :, 0], rays[:, :, 1], rays[:, :, 2:4], rays[:, :, 4:6]
     N = o.shape[0]
     Q = np.empty(3)
     sv = np.empty(3)
     for n in range(N):
-        _line_in_view(n, owner, fam, in_b, k, rho, u, dirs, R, that, ca, cb, Q, sv)
+        _line_in_view(n, owner, fam, in_b, k, rho, u, dirs, R, that, centres, Q, sv)
         w0 = Q[0] - o[n, 0]
         w1 = Q[1] - o[n, 1]
         w2 = Q[2] - o[n, 2]
@@ -257,15 +259,18 @@ def first_order_residuals(o, d, Jo, Jd, owner, fam, in_b, k, rho, u, dirs, R, th
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def first_order_jacobians(o, d, Jo, Jd, owner, fam, in_b, k, rho, u, du, fam_dirs, R, that, dthat, ca, cb, mu, A):
+def first_order_jacobians(rays, owner, fam, in_b, k, rho, u, du, fam_dirs, R, tframe, centres, mu, A):
     """``A (N, 2, 10)`` filled in place: the derivative of each pixel's first-order image distance
     (:func:`first_order_residuals`, at the depths ``mu`` it gave) by its 10 unknowns, the columns
     of :func:`pixel_jacobians` (row 1 zero; zero rows where the distance is not finite). The
     distance is ``delta / |g|``: ``delta`` the signed distance between the pixel's ray and its
     line along their common normal ``n``, ``g = -(Jo + lam Jd)' n`` its derivative by the pixel
     (``lam``: the depth along the ray of its point nearest the line); both are differentiated,
-    ``lam`` and ``n`` moving with the line. ``du (L, 3)``: each line's foot's derivative by its
-    angle; ``fam_dirs (F, 3, 3)``, ``dthat (2, 3)`` as :func:`pixel_jacobians`'s."""
+    ``lam`` and ``n`` moving with the line. ``rays`` as :func:`first_order_residuals`';
+    ``du (L, 3)``: each line's foot's derivative by its angle; ``fam_dirs (F, 3, 3)`` as
+    :func:`pixel_jacobians`'s; ``tframe (3, 3)``: its rows ``that`` and ``dthat``."""
+    o, d, Jo, Jd = rays[:, :, 0], rays[:, :, 1], rays[:, :, 2:4], rays[:, :, 4:6]
+    that, dthat = tframe[0], tframe[1:]
     N = o.shape[0]
     Q = np.empty(3)
     sv = np.empty(3)
@@ -281,7 +286,7 @@ def first_order_jacobians(o, d, Jo, Jd, owner, fam, in_b, k, rho, u, du, fam_dir
         for i in range(2):
             for j in range(10):
                 A[n, i, j] = 0.0
-        _line_in_view(n, owner, fam, in_b, k, rho, u, dirs, R, that, ca, cb, Q, sv)
+        _line_in_view(n, owner, fam, in_b, k, rho, u, dirs, R, that, centres, Q, sv)
         ln = owner[n]
         f = fam[ln]
         r = rho[ln]

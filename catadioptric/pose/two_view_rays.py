@@ -58,7 +58,10 @@ class RayProblem(Problem):
             idx = np.nonzero(m)[0][ok]
             self.ray_o[idx], self.ray_d[idx], self.ray_Jo[idx], self.ray_Jd[idx] = px.o[ok], px.d[ok], px.Jo[ok], \
                 px.Jd[ok]
-        self.ca, self.cb = np.ascontiguousarray(self.ca, dtype=float), np.ascontiguousarray(self.cb, dtype=float)
+        # one array for the kernels: o, d, Jo, Jd side by side as columns (N, 3, 6)
+        self.rays = np.ascontiguousarray(np.concatenate([self.ray_o[..., None], self.ray_d[..., None], self.ray_Jo,
+                                                         self.ray_Jd], axis=2))
+        self.centres = np.array([self.ca, self.cb], dtype=float)
 
     def residuals(self, R, y, mu):
         """Residuals ``e (N, 2)`` and the state :meth:`jacobian` needs: each pixel's depth on its
@@ -66,10 +69,9 @@ class RayProblem(Problem):
         s, _, _, rho, u, that, _, k = self.parts(y)
         e = np.empty((self.N, 2))
         depth = np.empty(self.N)
-        first_order_residuals(self.ray_o, self.ray_d, self.ray_Jo, self.ray_Jd, self.owner_c, self.fam_c, self.view_b,
-                              float(k), np.ascontiguousarray(rho), np.ascontiguousarray(u),
-                              np.ascontiguousarray(s), np.ascontiguousarray(R, dtype=float),
-                              np.ascontiguousarray(that), self.ca, self.cb, e, depth)
+        first_order_residuals(self.rays, self.owner_c, self.fam_c, self.view_b, float(k), np.ascontiguousarray(rho),
+                              np.ascontiguousarray(u), np.ascontiguousarray(s), np.ascontiguousarray(R, dtype=float),
+                              np.ascontiguousarray(that), self.centres, e, depth)
         return e, depth
 
     def jacobian(self, R, y, mu, state):
@@ -82,11 +84,11 @@ class RayProblem(Problem):
         du = -np.sin(al)[:, None] * e1l + np.cos(al)[:, None] * e2l
         dthat = np.stack([(self.f1 - that * (that @ self.f1)) / ntv, (self.f2 - that * (that @ self.f2)) / ntv])
         A = np.empty((self.N, 2, 10))
-        first_order_jacobians(self.ray_o, self.ray_d, self.ray_Jo, self.ray_Jd, self.owner_c, self.fam_c, self.view_b,
-                              float(k), np.ascontiguousarray(rho), np.ascontiguousarray(u), np.ascontiguousarray(du),
+        first_order_jacobians(self.rays, self.owner_c, self.fam_c, self.view_b, float(k), np.ascontiguousarray(rho),
+                              np.ascontiguousarray(u), np.ascontiguousarray(du),
                               np.ascontiguousarray(np.stack([s, ds_da, ds_db], axis=1)),
-                              np.ascontiguousarray(R, dtype=float), np.ascontiguousarray(that), dthat, self.ca,
-                              self.cb, np.ascontiguousarray(state, dtype=float), A)
+                              np.ascontiguousarray(R, dtype=float), np.ascontiguousarray(np.vstack([that, dthat])),
+                              self.centres, np.ascontiguousarray(state, dtype=float), A)
         return A, np.zeros((self.N, 2))
 
     def depth_column(self, R, y, state):
