@@ -72,17 +72,21 @@ def _tdir_deg(t, t_gt):
 
 @pytest.mark.parametrize("seed", [1, 4])
 def test_the_meetings_give_the_refinement_the_translation_s_direction(seed, monkeypatch):
-    """Box scene, hyperbolic rig 7 mm off the focus, 1 px: with the meeting pairs the direction of
-    ``t`` is within a degree (0.84 and 0.61 measured), without them 4.0 and 7.7 degrees off."""
+    """Box scene, hyperbolic rig 7 mm off the focus, 1 px, refined on the exact images: with the
+    meeting pairs the direction of ``t`` is within a degree (0.84 and 0.61 measured), without them
+    4.0 and 7.7 degrees off. With the first-order residuals (the default) the lines alone already
+    give this scene's direction (1.22 and 0.33 degree; 0.82 and 0.95 with the meetings); on the
+    benchmark's hyperbolic pairs at 2 px the meetings still take its median from 0.99 to 0.56
+    degree (validate/NOTES.md, 2026-11-30)."""
     import catadioptric.pose.labelled as rel
     from catadioptric.pose import relative_pose
 
     from test_relative_pose import _pair
 
     va, vb, R_gt, t_gt = _pair("hyperboloid", noise=1.0, seed=seed)
-    with_meetings = _tdir_deg(relative_pose(va, vb).t, t_gt)
+    with_meetings = _tdir_deg(relative_pose(va, vb, residuals="image").t, t_gt)
     monkeypatch.setattr(rel, "_corners", lambda *a, **k: (None, None))
-    without = _tdir_deg(relative_pose(va, vb).t, t_gt)
+    without = _tdir_deg(relative_pose(va, vb, residuals="image").t, t_gt)
     assert with_meetings < 1.5 and without > 2.0 * with_meetings, (with_meetings, without)
 
 
