@@ -212,6 +212,43 @@ def _line_in_view(n, owner, fam, in_b, k, rho, u, dirs, R, that, centres, Q, sv)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
+def _ray_line(rays, n, Q, sv, nv, M, g, out):
+    """Pixel ``n``'s ray (``rays[n]``, as :func:`first_order_residuals`') against the line
+    ``Q + m sv``: fills their common normal ``nv (3,)``, ``M = Jo + lam Jd (3, 2)``,
+    ``g = -M' nv (2,)`` and ``out = (delta, |g|, lam, m, b, 1 - b^2, |d x sv|)``: the signed
+    distance along the normal, its derivative's norm by the pixel, the depths along the ray and
+    along the line of their nearest points, the cosine between the two and what follows from it."""
+    w0 = Q[0] - rays[n, 0, 0]
+    w1 = Q[1] - rays[n, 1, 0]
+    w2 = Q[2] - rays[n, 2, 0]
+    d0, d1, d2 = rays[n, 0, 1], rays[n, 1, 1], rays[n, 2, 1]
+    b = sv[0] * d0 + sv[1] * d1 + sv[2] * d2
+    ws = sv[0] * w0 + sv[1] * w1 + sv[2] * w2
+    wd = d0 * w0 + d1 * w1 + d2 * w2
+    den = 1.0 - b * b
+    lam = (wd - b * ws) / den
+    m0 = d1 * sv[2] - d2 * sv[1]
+    m1 = d2 * sv[0] - d0 * sv[2]
+    m2 = d0 * sv[1] - d1 * sv[0]
+    mm = math.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
+    nv[0], nv[1], nv[2] = m0 / mm, m1 / mm, m2 / mm
+    for kk in range(3):
+        for i in range(2):
+            M[kk, i] = rays[n, kk, 2 + i] + lam * rays[n, kk, 4 + i]
+    gg = 0.0
+    for i in range(2):
+        g[i] = -(M[0, i] * nv[0] + M[1, i] * nv[1] + M[2, i] * nv[2])
+        gg += g[i] * g[i]
+    out[0] = nv[0] * w0 + nv[1] * w1 + nv[2] * w2
+    out[1] = math.sqrt(gg)
+    out[2] = lam
+    out[3] = (b * wd - ws) / den
+    out[4] = b
+    out[5] = den
+    out[6] = mm
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def first_order_residuals(rays, owner, fam, in_b, k, rho, u, dirs, R, that, centres, e, mu):
     """``e (N, 2)`` and ``mu (N,)`` filled in place: each pixel's first-order image distance to its
     line (:mod:`catadioptric.pose.two_view_rays`), signed, in ``e[:, 0]`` (``e[:, 1]`` zero; NaN
@@ -221,33 +258,17 @@ def first_order_residuals(rays, owner, fam, in_b, k, rho, u, dirs, R, that, cent
     pixel ``Jo (3, 2)``, ``Jd (3, 2)``; the rest as :func:`pixel_jacobians`'s, ``u (L, 3)`` each
     line's foot direction, ``dirs (F, 3)`` the families' directions in A, ``centres (2, 3)``
     the views' centres ``c_A``, ``c_B``."""
-    o, d, Jo, Jd = rays[:, :, 0], rays[:, :, 1], rays[:, :, 2:4], rays[:, :, 4:6]
-    N = o.shape[0]
+    N = rays.shape[0]
     Q = np.empty(3)
     sv = np.empty(3)
+    nv = np.empty(3)
+    M = np.empty((3, 2))
+    g = np.empty(2)
+    out = np.empty(7)
     for n in range(N):
         _line_in_view(n, owner, fam, in_b, k, rho, u, dirs, R, that, centres, Q, sv)
-        w0 = Q[0] - o[n, 0]
-        w1 = Q[1] - o[n, 1]
-        w2 = Q[2] - o[n, 2]
-        b = sv[0] * d[n, 0] + sv[1] * d[n, 1] + sv[2] * d[n, 2]
-        ws = sv[0] * w0 + sv[1] * w1 + sv[2] * w2
-        wd = d[n, 0] * w0 + d[n, 1] * w1 + d[n, 2] * w2
-        den = 1.0 - b * b
-        lam = (wd - b * ws) / den
-        mus = (b * wd - ws) / den
-        m0 = d[n, 1] * sv[2] - d[n, 2] * sv[1]
-        m1 = d[n, 2] * sv[0] - d[n, 0] * sv[2]
-        m2 = d[n, 0] * sv[1] - d[n, 1] * sv[0]
-        mm = math.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
-        n0, n1, n2 = m0 / mm, m1 / mm, m2 / mm
-        delta = n0 * w0 + n1 * w1 + n2 * w2
-        gg = 0.0
-        for i in range(2):
-            gi = -((Jo[n, 0, i] + lam * Jd[n, 0, i]) * n0 + (Jo[n, 1, i] + lam * Jd[n, 1, i]) * n1
-                   + (Jo[n, 2, i] + lam * Jd[n, 2, i]) * n2)
-            gg += gi * gi
-        gn = math.sqrt(gg)
+        _ray_line(rays, n, Q, sv, nv, M, g, out)
+        delta, gn, lam, mus = out[0], out[1], out[2], out[3]
         m_n = mus * rho[owner[n]] / k
         mu[n] = m_n if math.isfinite(m_n) else 0.0
         if math.isfinite(delta) and math.isfinite(gn) and gn > 0.0 and lam > 0.0:
@@ -269,9 +290,9 @@ def first_order_jacobians(rays, owner, fam, in_b, k, rho, u, du, fam_dirs, R, tf
     ``lam`` and ``n`` moving with the line. ``rays`` as :func:`first_order_residuals`';
     ``du (L, 3)``: each line's foot's derivative by its angle; ``fam_dirs (F, 3, 3)`` as
     :func:`pixel_jacobians`'s; ``tframe (3, 3)``: its rows ``that`` and ``dthat``."""
-    o, d, Jo, Jd = rays[:, :, 0], rays[:, :, 1], rays[:, :, 2:4], rays[:, :, 4:6]
+    d, Jd = rays[:, :, 1], rays[:, :, 4:6]
     that, dthat = tframe[0], tframe[1:]
-    N = o.shape[0]
+    N = rays.shape[0]
     Q = np.empty(3)
     sv = np.empty(3)
     dX = np.empty((10, 3))
@@ -281,6 +302,7 @@ def first_order_jacobians(rays, owner, fam, in_b, k, rho, u, du, fam_dirs, R, tf
     M = np.empty((3, 2))
     g = np.empty(2)
     nv = np.empty(3)
+    out = np.empty(7)
     dirs = fam_dirs[:, 0, :]
     for n in range(N):
         for i in range(2):
@@ -290,28 +312,8 @@ def first_order_jacobians(rays, owner, fam, in_b, k, rho, u, du, fam_dirs, R, tf
         ln = owner[n]
         f = fam[ln]
         r = rho[ln]
-        w0 = Q[0] - o[n, 0]
-        w1 = Q[1] - o[n, 1]
-        w2 = Q[2] - o[n, 2]
-        b = sv[0] * d[n, 0] + sv[1] * d[n, 1] + sv[2] * d[n, 2]
-        ws = sv[0] * w0 + sv[1] * w1 + sv[2] * w2
-        wd = d[n, 0] * w0 + d[n, 1] * w1 + d[n, 2] * w2
-        den = 1.0 - b * b
-        lam = (wd - b * ws) / den
-        m0 = d[n, 1] * sv[2] - d[n, 2] * sv[1]
-        m1 = d[n, 2] * sv[0] - d[n, 0] * sv[2]
-        m2 = d[n, 0] * sv[1] - d[n, 1] * sv[0]
-        mm = math.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
-        nv[0], nv[1], nv[2] = m0 / mm, m1 / mm, m2 / mm
-        delta = nv[0] * w0 + nv[1] * w1 + nv[2] * w2
-        for kk in range(3):
-            for i in range(2):
-                M[kk, i] = Jo[n, kk, i] + lam * Jd[n, kk, i]
-        gg = 0.0
-        for i in range(2):
-            g[i] = -(M[0, i] * nv[0] + M[1, i] * nv[1] + M[2, i] * nv[2])
-            gg += g[i] * g[i]
-        gn = math.sqrt(gg)
+        _ray_line(rays, n, Q, sv, nv, M, g, out)
+        delta, gn, lam, b, den, mm = out[0], out[1], out[2], out[4], out[5], out[6]
         if not (math.isfinite(delta) and math.isfinite(gn) and gn > 0.0 and lam > 0.0):
             continue
         # the line's point at the pixel's depth (over k, from c_A) and each column's moves of the
