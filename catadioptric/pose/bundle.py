@@ -349,9 +349,10 @@ def refine_two_view(data: TwoViewData, start: TwoViewStart, options: TwoViewOpti
     ``residuals``: "first_order" (default), each pixel's first-order image distance to its line
     from its ray (:class:`~catadioptric.pose.two_view_rays.RayProblem`: each depth solved in
     closed form at every evaluation, no projection); "image", the exact distance to the image of
-    the line's point at the pixel's depth (a depth per pixel carried as an unknown). The two
-    answers are not told apart on the benchmark (validate/NOTES.md, 2026-11-30); the first is the
-    faster. With "image": ``warm_start``: each step's images continued from the last accepted state's reflection points
+    the line's point at the pixel's depth (a depth per pixel carried as an unknown). Their
+    rotations are not told apart on the benchmark; the first is the faster, the second tells the
+    scene's scale better where the pixels tell it at all (the first's leans far; validate/NOTES.md,
+    2026-11-30). With "image": ``warm_start``: each step's images continued from the last accepted state's reflection points
     (:func:`catadioptric.projection.project_from`); False: every image searched anew each time
     (slower: 1.32x the time over 8 benchmark draws at 2 px, ``bench/bench_refinement.py --cold``;
     the same minimum, though along a near-central rig's flat scale the two may stop apart: 0.172
