@@ -24,10 +24,18 @@ from .meetings import check_corners
 from .two_view_problem import MU_MAX, Problem
 from .two_view_rays import RayProblem
 
-__all__ = ["TwoViewData", "TwoViewStart", "TwoViewOptions", "TwoViewFit", "refine_two_view", "RESIDUALS"]
+__all__ = ["TwoViewData", "TwoViewStart", "TwoViewOptions", "TwoViewFit", "refine_two_view", "RESIDUALS",
+           "check_residuals"]
 
 #: the residuals a two-view refinement can minimise (:attr:`TwoViewOptions.residuals`), and their problems
 RESIDUALS = {"first_order": RayProblem, "image": Problem}
+
+
+def check_residuals(value) -> str:
+    """``value`` if it names residuals of :data:`RESIDUALS`; otherwise a one-line error naming it."""
+    if not isinstance(value, str) or value not in RESIDUALS:
+        raise CatadioptricError(f"residuals: expected one of {', '.join(map(repr, RESIDUALS))}, got {value!r}")
+    return value
 
 
 @dataclass(frozen=True)
@@ -384,8 +392,7 @@ def refine_two_view(data: TwoViewData, start: TwoViewStart, options: TwoViewOpti
     tests/test_relative_pose.py at 1 px, held at 64 m, 1.24 degree (0.07 free).
     """
     o = options
-    if not isinstance(o.residuals, str) or o.residuals not in RESIDUALS:
-        raise CatadioptricError(f"residuals: expected one of {', '.join(map(repr, RESIDUALS))}, got {o.residuals!r}")
+    check_residuals(o.residuals)
     cam_a, cam_b, line_family = data.cam_a, data.cam_b, data.line_family
     uv_a = np.asarray(data.uv_a, float).reshape(-1, 2)
     uv_b = np.asarray(data.uv_b, float).reshape(-1, 2)

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .._checks import CatadioptricError, as_count, as_scalar
-from .bundle import RESIDUALS, TwoViewData, TwoViewFit, TwoViewOptions, TwoViewStart
+from .bundle import TwoViewData, TwoViewFit, TwoViewOptions, TwoViewStart, check_residuals
 from .central import (CrossingFit, Parallax, meeting_rays, parallax, residual_weights, rotation_twins,
                       translation_direction_from_crossings)
 from .epipolar import refine_with_crossings
@@ -119,9 +119,7 @@ class PoseOptions:
                 raise CatadioptricError(f"{name}: expected a non-negative number of pixels, got {v}")
             ok[name] = v
         ok["threads"] = as_count(self.threads, "threads", minimum=1, maximum=2)
-        if not isinstance(self.residuals, str) or self.residuals not in RESIDUALS:
-            raise CatadioptricError(f"residuals: expected one of {', '.join(map(repr, RESIDUALS))}, "
-                                    f"got {self.residuals!r}")
+        check_residuals(self.residuals)
         return replace(self, **ok)
 
 
