@@ -67,8 +67,8 @@ def test_the_jacobian_is_the_residuals_derivative(name):
     pb = _problem(name, uv_a + rng.normal(0, 2, uv_a.shape), uv_b + rng.normal(0, 2, uv_b.shape), a, s, R, t)
     y = pb.start()
     mu = np.zeros(pb.N)
-    e, depth = pb.residuals(R, y, mu)
-    A, b = pb.jacobian(R, y, mu, depth)
+    e, state = pb.residuals(R, y, mu)
+    A, b = pb.jacobian(R, y, mu, state)
     ok = np.isfinite(e[:, 0])
     assert np.all(b == 0) and np.all(A[:, 1] == 0) and np.all(A[~ok] == 0) and ok.mean() > 0.9
     for j in range(pb.ny):

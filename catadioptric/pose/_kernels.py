@@ -249,11 +249,10 @@ def _ray_line(rays, n, Q, sv, nv, M, g, out):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def first_order_residuals(rays, owner, fam, in_b, k, rho, u, dirs, R, that, centres, e, mu):
-    """``e (N, 2)`` and ``mu (N,)`` filled in place: each pixel's first-order image distance to its
-    line (:mod:`catadioptric.pose.two_view_rays`), signed, in ``e[:, 0]`` (``e[:, 1]`` zero; NaN
-    where its ray is not finite, parallel to the line or meets it behind its origin) and the depth
-    (the unknowns' ``mu``) of the line's point nearest its ray (0 where none). ``rays (N, 3, 6)``:
+def first_order_residuals(rays, owner, fam, in_b, k, rho, u, dirs, R, that, centres, e):
+    """``e (N, 2)`` filled in place: each pixel's first-order image distance to its line
+    (:mod:`catadioptric.pose.two_view_rays`), signed, in ``e[:, 0]`` (``e[:, 1]`` zero; NaN where
+    its ray is not finite, parallel to the line or meets it behind its origin). ``rays (N, 3, 6)``:
     each pixel's ray in its own view's frame, columns ``o``, ``d`` and their derivatives by the
     pixel ``Jo (3, 2)``, ``Jd (3, 2)``; the rest as :func:`pixel_jacobians`'s, ``u (L, 3)`` each
     line's foot direction, ``dirs (F, 3)`` the families' directions in A, ``centres (2, 3)``
@@ -268,9 +267,7 @@ def first_order_residuals(rays, owner, fam, in_b, k, rho, u, dirs, R, that, cent
     for n in range(N):
         _line_in_view(n, owner, fam, in_b, k, rho, u, dirs, R, that, centres, Q, sv)
         _ray_line(rays, n, Q, sv, nv, M, g, out)
-        delta, gn, lam, mus = out[0], out[1], out[2], out[3]
-        m_n = mus * rho[owner[n]] / k
-        mu[n] = m_n if math.isfinite(m_n) else 0.0
+        delta, gn, lam = out[0], out[1], out[2]
         if math.isfinite(delta) and math.isfinite(gn) and gn > 0.0 and lam > 0.0:
             e[n, 0] = delta / gn
             e[n, 1] = 0.0
@@ -280,9 +277,9 @@ def first_order_residuals(rays, owner, fam, in_b, k, rho, u, dirs, R, that, cent
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def first_order_jacobians(rays, owner, fam, in_b, k, rho, u, du, fam_dirs, R, tframe, centres, mu, A):
+def first_order_jacobians(rays, owner, fam, in_b, k, rho, u, du, fam_dirs, R, tframe, centres, A):
     """``A (N, 2, 10)`` filled in place: the derivative of each pixel's first-order image distance
-    (:func:`first_order_residuals`, at the depths ``mu`` it gave) by its 10 unknowns, the columns
+    (:func:`first_order_residuals`) by its 10 unknowns, at the line's point nearest its ray, the columns
     of :func:`pixel_jacobians` (row 1 zero; zero rows where the distance is not finite). The
     distance is ``delta / |g|``: ``delta`` the signed distance between the pixel's ray and its
     line along their common normal ``n``, ``g = -(Jo + lam Jd)' n`` its derivative by the pixel
@@ -316,15 +313,16 @@ def first_order_jacobians(rays, owner, fam, in_b, k, rho, u, du, fam_dirs, R, tf
         delta, gn, lam, b, den, mm = out[0], out[1], out[2], out[4], out[5], out[6]
         if not (math.isfinite(delta) and math.isfinite(gn) and gn > 0.0 and lam > 0.0):
             continue
+        mu = out[3] * r / k  # that point's depth (the unknowns' mu)
         # the line's point at the pixel's depth (over k, from c_A) and each column's moves of the
         # point dX and of the direction dS, in A's frame first
         for i in range(3):
-            V[i] = (u[ln, i] + mu[n] * fam_dirs[f, 0, i]) / r
+            V[i] = (u[ln, i] + mu * fam_dirs[f, 0, i]) / r
         for c in range(10):
             for i in range(3):
                 dX[c, i] = 0.0
                 dS[c, i] = 0.0
-        km = k * mu[n] / r
+        km = k * mu / r
         for i in range(3):
             dX[5, i] = k * V[i]
             dX[6, i] = km * fam_dirs[f, 1, i]

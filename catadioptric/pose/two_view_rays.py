@@ -13,7 +13,8 @@ its ray onto the line, to first order (for a central rig, ``|n . d| / |Jd' n|`` 
 interpretation planes, docs/linefit.md). It is zero exactly where the ray meets the line, and
 within a few per cent of the exact distance to the line's image for pixels a few pixels off it
 (the curve's own curvature is the second order): on the relative-pose benchmark at 2 px, the
-ratio's 5th-95th percentiles 0.98-1.03 at the refinement's answer.
+ratio's 5th-95th percentiles 0.98-1.03 at the refinement's answer (one-off, validate/NOTES.md,
+2026-11-30; tests/test_two_view_rays.py holds the second order).
 
 The point of the line each pixel sees is not an unknown here: its depth is solved in closed form
 at every evaluation (the line's point nearest the ray), so the refinement has no depths to carry,
@@ -45,10 +46,9 @@ class RayProblem(Problem):
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
-        self.ray_o = np.full((self.N, 3), np.nan)
-        self.ray_d = np.full((self.N, 3), np.nan)
-        self.ray_Jo = np.full((self.N, 3, 2), np.nan)
-        self.ray_Jd = np.full((self.N, 3, 2), np.nan)
+        # each pixel's ray and its derivatives by the pixel, as the kernels take them: columns o, d,
+        # Jo (2), Jd (2) of rays (N, 3, 6); NaN where the pixel has none
+        self.rays = np.full((self.N, 3, 6), np.nan)
         for v, cam in enumerate(self.cams):
             m = np.asarray(self.view) == v
             if not m.any():
@@ -56,23 +56,18 @@ class RayProblem(Problem):
             px, ok = pixels_with_rays(cam, self.uv[m])
             ok = ok & np.all(np.isfinite(px.Jo), axis=(1, 2)) & np.all(np.isfinite(px.Jd), axis=(1, 2))
             idx = np.nonzero(m)[0][ok]
-            self.ray_o[idx], self.ray_d[idx], self.ray_Jo[idx], self.ray_Jd[idx] = px.o[ok], px.d[ok], px.Jo[ok], \
-                px.Jd[ok]
-        # one array for the kernels: o, d, Jo, Jd side by side as columns (N, 3, 6)
-        self.rays = np.ascontiguousarray(np.concatenate([self.ray_o[..., None], self.ray_d[..., None], self.ray_Jo,
-                                                         self.ray_Jd], axis=2))
+            self.rays[idx] = np.concatenate([px.o[ok][..., None], px.d[ok][..., None], px.Jo[ok], px.Jd[ok]], axis=2)
         self.centres = np.array([self.ca, self.cb], dtype=float)
 
     def residuals(self, R, y, mu):
-        """Residuals ``e (N, 2)`` and the state :meth:`jacobian` needs: each pixel's depth on its
-        line (its point nearest the ray; ``mu`` given is not used)."""
+        """Residuals ``e (N, 2)`` and the state :meth:`jacobian` needs (none: each pixel's point is
+        the line's point nearest its ray, found again there; ``mu`` given is not used)."""
         s, _, _, rho, u, that, _, k = self.parts(y)
         e = np.empty((self.N, 2))
-        depth = np.empty(self.N)
         first_order_residuals(self.rays, self.owner_c, self.fam_c, self.view_b, float(k), np.ascontiguousarray(rho),
                               np.ascontiguousarray(u), np.ascontiguousarray(s), np.ascontiguousarray(R, dtype=float),
-                              np.ascontiguousarray(that), self.centres, e, depth)
-        return e, depth
+                              np.ascontiguousarray(that), self.centres, e)
+        return e, None
 
     def jacobian(self, R, y, mu, state):
         """``A (N, 2, 10)`` (columns ``self.cols``; row 1 zero) and the depth column ``b (N, 2)``
@@ -88,7 +83,7 @@ class RayProblem(Problem):
                               np.ascontiguousarray(u), np.ascontiguousarray(du),
                               np.ascontiguousarray(np.stack([s, ds_da, ds_db], axis=1)),
                               np.ascontiguousarray(R, dtype=float), np.ascontiguousarray(np.vstack([that, dthat])),
-                              self.centres, np.ascontiguousarray(state, dtype=float), A)
+                              self.centres, A)
         return A, np.zeros((self.N, 2))
 
     def depth_column(self, R, y, state):
