@@ -238,9 +238,16 @@ _JOINT_AGREE_SIGMA = 5.0 * 2.5
 
 
 #: the agreement of the images (:func:`catadioptric.photometric.rotation_agreement`, a correlation) by
-#: which an answer other than the geometry's first must beat every other answer its directions allow,
-#: for :func:`settle_by_look` to decide an answer left ambiguous (the geometry's first needs only to lead)
+#: which the answer the images' look takes must beat each answer the geometry ranks ahead of it, for
+#: :func:`settle_by_look` to decide an answer left ambiguous (those it ranks behind need only agree less)
 LOOK_BAR = 0.1
+
+#: answers whose rotations lie closer than this (degrees) are one answer to the images' look
+#: (:func:`settle_by_look`): it compares the views as if the scene were at infinity, and the
+#: translation it leaves out moves the rotation where they agree best 3-7 degrees from the true one on
+#: the rendered street pairs (:meth:`catadioptric.photometric.RotationAgreement.best_near`); among
+#: such answers the geometry's ranking decides
+LOOK_SAME_DEG = 10.0
 
 
 def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, None), *, bar: float = LOOK_BAR) -> bool:
@@ -253,16 +260,19 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     (:func:`catadioptric.photometric.rotation_agreement`); an answer under which too little of B is
     seen in A to compare contradicts the lines it matched in both views and ranks last (agreement
     taken as -1), unless a mask is given (the mask may be what hides the view: then no answer is
-    chosen). The answer that agrees best is the
-    answer when it agrees better than every other by at least ``bar`` (by any margin when it is the
-    geometry's own first answer: the two cues then agree, and only an answer that overturns the
-    lines' ranking needs the bar) and the geometry keeps it (its cost within the matching's bar of
-    the best: one of the answers the geometry could not tell apart, refined as the best was), and no rotation near it agrees better by ``bar``
+    chosen). The answers within :data:`LOOK_SAME_DEG` of the one that agrees best are one answer to
+    the look, and the geometry's first of them is taken (:func:`look_choice`). It is the answer when
+    the look ranks every other answer below it, by at least ``bar`` each answer the geometry ranks
+    ahead of it (the look then overturns the lines' ranking; an answer the geometry ranks behind needs
+    only to rank behind: the two cues agree), the geometry keeps it (its cost within the matching's
+    bar of the best: one of the answers the geometry could not tell apart, refined as the best was),
+    and no rotation near it agrees better by ``bar``
     (:meth:`~catadioptric.photometric.RotationAgreement.best_near`: the answer is where the images
     agree, not only the best of the answers). ``res`` then holds it, decisive, its candidates first;
     its ``margin`` stays the geometry's (negative when the geometry ranked another first). What was measured
-    goes to ``pose.evidence["look"]`` (each answer's candidate index and agreement, the best one's,
-    its margin, the best agreement near it and how far, the bar, whether it decided) and the notes. Returns whether it decided."""
+    goes to ``pose.evidence["look"]`` (each answer's candidate index and agreement, the one it ranks
+    first, the answer taken, its margin, the best agreement near it and how far, the bar, whether it
+    decided) and the notes. Returns whether it decided."""
     from .photometric import RotationAgreement
     from .pose import rotation_angle_deg
     from .pose.labelled import SAME_ANSWER_DEG
@@ -281,51 +291,50 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     judge = RotationAgreement(images[0], images[1], cams[0], cams[1], masks=masks)
     agree = judge(np.stack([p.candidates[k].R for k in answers]))
     unseen = ~np.isfinite(agree)
-    look = {"candidates": answers, "agreement": [float(a) for a in agree], "best": None, "margin": float("nan"),
-            "nearby": None, "bar": float(bar), "decided": False}
+    look = {"candidates": answers, "agreement": [float(a) for a in agree], "best": None, "ranked_first": None,
+            "margin": float("nan"), "nearby": None, "bar": float(bar), "same_deg": LOOK_SAME_DEG, "decided": False}
     ev["look"] = look
     masked = any(m is not None for m in masks)
-    score = ranked_agreement(agree, masked=masked)
-    if score is None:
+
+    def choose():
+        score = ranked_agreement(agree, masked=masked)
+        if score is None:
+            return None
+        ch = look_choice(score, [p.candidates[k].R for k in answers], bar)
+        look.update(best=answers[ch.taken], ranked_first=answers[ch.first], margin=ch.margin)
+        return ch
+
+    ch = choose()
+    if ch is None:
         p.notes = [*p.notes, "the images' look did not decide it: some answers' rotations leave too little of B "
                              "seen in A to compare" + (" (under the masks)" if masked else "")]
         return False
-    order = np.argsort(-score, kind="stable")
-    k = answers[order[0]]
-    margin = float(score[order[0]] - score[order[1]])
-    look |= {"best": k, "margin": margin}
+    k = answers[ch.taken]
     kept = p.candidates[k].cost - p.candidates[0].cost < ev["bar"]
     refined = k == 0 or k in p.rivals
-    if kept and not refined and margin >= bar and p.refine_rival(k):
-        # a rival beyond those refined with the answer, refined now that the look ranks it first: its
-        # refined rotation is scored again, and must still lead by the bar
+    if kept and not refined and ch.short is None and p.refine_rival(k):
+        # a rival beyond those refined with the answer, refined now that the look takes it: its
+        # refined rotation is scored again, and the look must take it again
         refined = True
-        i = int(order[0])
-        agree[i] = judge(p.candidates[k].R[None])[0]
-        look["agreement"][i] = float(agree[i])
+        agree[ch.taken] = judge(p.candidates[k].R[None])[0]
+        look["agreement"][ch.taken] = float(agree[ch.taken])
         look["refined_now"] = k
-        score = ranked_agreement(agree, masked=masked)
-        if score is None:
+        ch = choose()
+        if ch is None:
             p.notes = [*p.notes, f"the images' look did not decide it: its best answer (candidate {k}), refined, "
                                  "leaves too little of B seen in A to compare"]
             return False
-        order = np.argsort(-score, kind="stable")
-        margin = float(score[order[0]] - score[order[1]])
-        look["margin"] = margin
-        if answers[order[0]] != k:
+        if answers[ch.taken] != k:
             p.notes = [*p.notes, f"the images' look did not decide it: its best answer (candidate {k}), refined, "
-                                 f"no longer leads (candidate {answers[order[0]]} does)"]
+                                 f"no longer leads (candidate {answers[ch.taken]} does)"]
             return False
-    # the geometry's own first answer needs the look's preference alone (two cues agree); another answer
-    # must beat every other by the bar (the look overturns the lines' ranking)
-    enough = margin >= bar or (k == 0 and margin > 0.0)
     gain = apart = float("nan")
-    if enough and kept and refined:
+    if ch.short is None and kept and refined:
         R_near, a_near = judge.best_near(p.candidates[k].R)
-        gain, apart = a_near - float(agree[order[0]]), rotation_angle_deg(R_near @ p.candidates[k].R.T)
+        gain, apart = a_near - float(agree[ch.taken]), rotation_angle_deg(R_near @ p.candidates[k].R.T)
         look["nearby"] = {"agreement": a_near, "apart_deg": apart}
-    if not enough or not kept or not refined or not gain < bar:
-        lost = (f"margin {margin:.3f} against a bar of {bar:g}" if not enough else
+    if ch.short is not None or not kept or not refined or not gain < bar:
+        lost = (_short_note(ch, answers) if ch.short is not None else
                 f"its best answer (candidate {k}) is beyond the matching's bar" if not kept else
                 f"its best answer (candidate {k}) was not refined" if not refined else
                 f"a rotation {apart:.1f} deg from its best answer agrees better by {gain:.3f} (bar {bar:g}): that "
@@ -333,18 +342,87 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
         p.notes = [*p.notes, f"the images' look did not decide it: {lost}"]
         return False
     look["decided"] = True
-    note = (f"decided by the images' look: image B agrees with image A turned by "
-            f"{'the best answer' if k == 0 else f'candidate {k} (within the matching bar of the best)'} "
-            f"(correlation {agree[order[0]]:.3f}) better than by any of the {len(answers) - 1} other answers by "
-            f"{margin:.3f}, "
-            + (f"against a bar of {bar:g}" if margin >= bar else
-               f"confirming the lines' own first answer (another answer would need {bar:g})")
-            + (f" ({int(unseen.sum())} of them turn B's view out of A's)" if unseen.any() else ""))
+    note = _decided_note(ch, answers, ranked_agreement(agree, masked=masked), unseen, bar)
     if k != 0:
         p = _take_rival(res, k)
     p.ambiguous = False
     p.notes = [note, *p.notes]
     return True
+
+
+@dataclass
+class LookChoice:
+    """What the images' look makes of the answers (:func:`look_choice`; indices into the answers)."""
+
+    #: the answer that agrees best
+    first: int
+    #: the answers within :data:`LOOK_SAME_DEG` of it (itself included), which the look does not tell apart
+    same: list
+    #: the geometry's first of them: the answer the look would take
+    taken: int
+    #: the first one's agreement over the best of the other answers (NaN: there is none)
+    margin: float
+    #: None when the look ranks every other answer below it enough; else ``(j, margin, needed)`` for the
+    #: other answer ``j`` it does not (``j`` None: no other answer; all lie within the same degrees)
+    short: tuple | None
+
+
+def look_choice(score, rotations, bar: float) -> LookChoice:
+    """The answer the images' look takes among answers ranked by the geometry (in that order) with
+    agreements ``score`` (as :func:`ranked_agreement` gives them) and ``rotations``: the one that
+    agrees best and those within :data:`LOOK_SAME_DEG` of it are one answer to the look, the
+    geometry's first of them is taken; every other answer must agree less, by ``bar`` when the
+    geometry ranks it ahead of the one taken (:func:`settle_by_look`)."""
+    from .pose import rotation_angle_deg
+
+    score = np.asarray(score, dtype=float)
+    first = int(np.argmax(score))
+    same = [j for j, R in enumerate(rotations) if rotation_angle_deg(R @ rotations[first].T) < LOOK_SAME_DEG]
+    taken = min(same)
+    others = [j for j in range(len(score)) if j not in same]
+    gaps = [float(score[first] - score[j]) for j in others]
+    short = None if others else (None, float("nan"), 0.0)
+    for j, m in zip(others, gaps):
+        need = bar if j < taken else 0.0
+        if not (m > 0.0 and m >= need):
+            short = (j, m, need)
+            break
+    return LookChoice(first, same, taken, min(gaps) if gaps else float("nan"), short)
+
+
+def _short_note(ch: LookChoice, answers) -> str:
+    """Why the look does not take an answer (:attr:`LookChoice.short`), for the notes."""
+    j, m, need = ch.short
+    if j is None:
+        return f"its answers all lie within {LOOK_SAME_DEG:g} deg of one another: it does not tell them apart"
+    if need > 0.0:
+        return (f"margin {m:.3f} over candidate {answers[j]} (which the geometry ranks ahead of candidate "
+                f"{answers[ch.taken]}) against a bar of {need:g}")
+    return f"candidate {answers[j]} agrees as well as its best (margin {m:.3f})"
+
+
+def _decided_note(ch: LookChoice, answers, score, unseen, bar: float) -> str:
+    """The note of an answer the look decided (:func:`settle_by_look`; ``score`` as ranked)."""
+    k = answers[ch.taken]
+    text = (f"decided by the images' look: image B agrees with image A turned by "
+            f"{'the best answer' if k == 0 else f'candidate {k} (within the matching bar of the best)'} "
+            f"(correlation {score[ch.first]:.3f}) better than by any of the "
+            f"{len(answers) - len(ch.same)} other answers by {ch.margin:.3f}")
+    if ch.first != ch.taken:
+        text += (f" (it agrees best as candidate {answers[ch.first]}, within {LOOK_SAME_DEG:g} deg of it: the look "
+                 f"does not tell them apart, and the geometry ranks candidate {k} first)")
+    if ch.taken > 0:
+        ahead = min(float(score[ch.first] - score[j]) for j in range(ch.taken))
+        which = "the answer" if ch.taken == 1 else f"each of the {ch.taken} answers"
+        text += (f"; than {which} the geometry ranks ahead of it by {ahead:.3f}, against a bar of "
+                 f"{bar:g} (those it ranks behind need only agree less)")
+    elif ch.margin >= bar:
+        text += f", against a bar of {bar:g}"
+    else:
+        text += f", confirming the lines' own first answer (another answer would need {bar:g})"
+    if unseen.any():
+        text += f" ({int(unseen.sum())} of them turn B's view out of A's)"
+    return text
 
 
 def ranked_agreement(agreement, *, masked: bool):

@@ -305,7 +305,7 @@ def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street, 
     first case. Any other reason for the ambiguity is left to the geometry."""
     import copy
 
-    from catadioptric.twoview import LOOK_BAR, settle_by_look
+    from catadioptric.twoview import LOOK_BAR, LOOK_SAME_DEG, settle_by_look
 
     _, a, b, R_gt, _ = street
     res = copy.deepcopy(held_ambiguous)
@@ -318,7 +318,9 @@ def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street, 
     assert look["candidates"][0] == 0 and len(agree) == len(look["candidates"]) >= 2
     # on this pair the look ranks the first answer, the right one, first
     assert look["best"] == 0 and rotation_angle_deg(res.pose.R @ R_gt.T) < 0.5, look
-    assert np.isclose(look["margin"], agree[0] - agree[1:].max()) and look["bar"] == LOOK_BAR
+    # the margin is over the answers more than LOOK_SAME_DEG from it (those nearer are the same to the look)
+    far = [rotation_angle_deg(res.pose.candidates[k].R @ R0.T) >= LOOK_SAME_DEG for k in look["candidates"]]
+    assert np.isclose(look["margin"], agree[0] - agree[far].max()) and look["bar"] == LOOK_BAR
     assert look["margin"] > 0 and decided == look["decided"] == (not res.pose.ambiguous)
     assert decided, res.pose.notes  # its nearby check passes: a right answer
     # with a bar below its margin the look decides it, and the answer stays the first
@@ -345,16 +347,21 @@ def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street, 
     assert swap.pose.evidence["look"]["best"] == 1 and not swap.pose.ambiguous
     assert np.array_equal(swap.pose.R, R0) and swap.pose.candidates[0] is right
     assert swap.family_map == res.family_map and np.isclose(swap.pose.margin, res.pose.margin)
-    # overturning the lines' ranking needs the bar: above the look's margin, the answer stays ambiguous
-    p = swap_high.pose
-    p.candidates = [wrong, right, *[c for i, c in enumerate(p.candidates) if i not in (0, j)]]
-    p.rivals = {1: copy.deepcopy(res.pose)}
-    p.R, p.ambiguous = wrong.R, True
-    p.evidence["ambiguous_by"] = ["margin"]
-    assert not settle_by_look(swap_high, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]),
-                              bar=2.0 * look["margin"])
-    assert swap_high.pose.ambiguous and swap_high.pose.evidence["look"]["best"] == 1
-    assert "against a bar of" in swap_high.pose.notes[-1]
+    # overturning the lines' ranking needs the bar over the answer the geometry put ahead, not over
+    # those it ranks behind: with a bar between the two margins decided, above the first ambiguous
+    ahead = agree[0] - agree[1]
+    assert ahead > 2.0 * look["margin"]
+    for bar, decides in ((0.5 * (ahead + look["margin"]), True), (2.0 * ahead, False)):
+        h = copy.deepcopy(swap_high)
+        p = h.pose
+        p.candidates = [wrong, right, *[c for i, c in enumerate(p.candidates) if i not in (0, j)]]
+        p.rivals = {1: copy.deepcopy(res.pose)}
+        p.R, p.ambiguous = wrong.R, True
+        p.evidence["ambiguous_by"] = ["margin"]
+        assert settle_by_look(h, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]), bar=bar) == decides
+        assert h.pose.ambiguous != decides and h.pose.evidence["look"]["best"] == 1
+        note = h.pose.notes[0 if decides else -1]
+        assert ("than the answer the geometry ranks ahead of it" if decides else "against a bar of") in note
     # ambiguous for another reason (a rival the geometry could not score): the look is not asked
     other.pose.evidence["ambiguous_by"] = ["margin", "unscored"]
     assert not settle_by_look(other, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]))
@@ -593,3 +600,36 @@ def test_the_threads_asked_of_the_image_path_reach_each_refinement(with_prior_al
     res = pose_from_detections(*with_prior_alone.detections, max_rotation_deg=60.0, threads=1)
     assert asked and set(asked) == {1}
     assert np.array_equal(res.pose.R, pose_from_detections(*with_prior_alone.detections, max_rotation_deg=60.0).pose.R)
+
+
+def test_the_look_takes_the_geometrys_first_of_the_answers_it_cannot_tell_apart():
+    """look_choice: the answers within LOOK_SAME_DEG of the one that agrees best are one answer to
+    the look, and the geometry's first of them (the lowest index) is taken; every other answer must
+    agree less, by the bar when the geometry ranks it ahead of the one taken, by any margin when it
+    ranks it behind."""
+    from scipy.spatial.transform import Rotation
+
+    from catadioptric.twoview import LOOK_SAME_DEG, look_choice
+
+    def turn(deg):
+        return Rotation.from_euler("z", deg, degrees=True).as_matrix()
+
+    # 0: a half-turn, 1: the truth's neighbour 0.8 LOOK_SAME_DEG away, 2: the truth, 3: a quarter turn
+    Rs = [turn(180.0), turn(0.8 * LOOK_SAME_DEG), turn(0.0), turn(90.0)]
+    ch = look_choice([0.40, 0.55, 0.60, 0.58], Rs, 0.1)
+    assert (ch.first, ch.same, ch.taken) == (2, [1, 2], 1)
+    assert np.isclose(ch.margin, 0.02) and ch.short is None  # 3 ranks behind 1: less agreement is enough
+    # the neighbour just beyond LOOK_SAME_DEG is another answer to the look: 2 is taken, and the
+    # neighbour, which the geometry ranks ahead of it, must agree less by the bar
+    Rs[1] = turn(1.01 * LOOK_SAME_DEG)
+    ch = look_choice([0.40, 0.55, 0.60, 0.58], Rs, 0.1)
+    assert (ch.first, ch.same, ch.taken) == (2, [2], 2)
+    assert ch.short[0] == 1 and np.isclose(ch.short[1], 0.05) and ch.short[2] == 0.1
+    assert look_choice([0.40, 0.45, 0.60, 0.58], Rs, 0.1).short is None
+    # an answer the geometry ranks behind that agrees as well is not told apart either
+    ch = look_choice([0.40, 0.45, 0.60, 0.60], Rs, 0.1)
+    assert ch.short[:2] == (3, 0.0) and ch.short[2] == 0.0
+    # the geometry's first answer needs only to lead; all answers within the degrees: nothing to tell apart
+    assert look_choice([0.61, 0.45, 0.60, 0.20], Rs, 0.1).short is None
+    ch = look_choice([0.3, 0.5], [turn(0.0), turn(0.5 * LOOK_SAME_DEG)], 0.1)
+    assert ch.taken == 0 and ch.short[0] is None and np.isnan(ch.margin)
