@@ -85,7 +85,8 @@ def _geometry_alone(res, R_gt) -> dict:
 def _look(res, R_gt) -> dict:
     """What the images' look said of an answer the geometry left ambiguous by its margin
     (:func:`catadioptric.twoview.settle_by_look`; None where it was not asked): whether it decided;
-    the answer it ranks first, its rotation error, its agreement's margin over every other answer,
+    the answer it takes (the geometry's first of those within ``LOOK_SAME_DEG`` of the one that
+    agrees best), its rotation error, the best agreement's margin over every other answer,
     whether the geometry keeps it within its bar of the best, and how much better a rotation near it
     agrees (None where that was not looked for)."""
     from ..pose import rotation_angle_deg
