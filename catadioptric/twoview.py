@@ -245,8 +245,8 @@ LOOK_BAR = 0.1
 #: answers whose rotations lie closer than this (degrees) are one answer to the images' look
 #: (:func:`settle_by_look`): it compares the views as if the scene were at infinity, and the
 #: translation it leaves out moves the rotation where they agree best 3-7 degrees from the true one on
-#: the rendered street pairs (:meth:`catadioptric.photometric.RotationAgreement.best_near`); among
-#: such answers the geometry's ranking decides
+#: the rendered street pairs (:meth:`catadioptric.photometric.RotationAgreement.best_near`), by a
+#: few hundredths of agreement; among such answers (their agreements within the bar) the geometry decides
 LOOK_SAME_DEG = 10.0
 
 
@@ -260,8 +260,9 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     (:func:`catadioptric.photometric.rotation_agreement`); an answer under which too little of B is
     seen in A to compare contradicts the lines it matched in both views and ranks last (agreement
     taken as -1), unless a mask is given (the mask may be what hides the view: then no answer is
-    chosen). The answers within :data:`LOOK_SAME_DEG` of the one that agrees best are one answer to
-    the look, and the geometry's first of them is taken (:func:`look_choice`). It is the answer when
+    chosen). The answers within :data:`LOOK_SAME_DEG` of the one that agrees best, their agreement
+    within ``bar`` of its, are one answer to the look, and the geometry's first of them is taken
+    when the geometry tells it from the others (:func:`look_choice`). It is the answer when
     the look ranks every other answer below it, by at least ``bar`` each answer the geometry ranks
     ahead of it (the look then overturns the lines' ranking; an answer the geometry ranks behind needs
     only to rank behind: the two cues agree), the geometry keeps it (its cost within the matching's
@@ -300,7 +301,8 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
         score = ranked_agreement(agree, masked=masked)
         if score is None:
             return None
-        ch = look_choice(score, [p.candidates[k].R for k in answers], bar)
+        ch = look_choice(score, [p.candidates[k].R for k in answers], [p.candidates[k].cost for k in answers], bar,
+                         ev["bar"])
         look.update(best=answers[ch.taken], ranked_first=answers[ch.first], margin=ch.margin)
         return ch
 
@@ -312,7 +314,7 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     k = answers[ch.taken]
     kept = p.candidates[k].cost - p.candidates[0].cost < ev["bar"]
     refined = k == 0 or k in p.rivals
-    if kept and not refined and ch.short is None and p.refine_rival(k):
+    if kept and not refined and ch.decides and p.refine_rival(k):
         # a rival beyond those refined with the answer, refined now that the look takes it: its
         # refined rotation is scored again, and the look must take it again
         refined = True
@@ -329,12 +331,12 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
                                  f"no longer leads (candidate {answers[ch.taken]} does)"]
             return False
     gain = apart = float("nan")
-    if ch.short is None and kept and refined:
+    if ch.decides and kept and refined:
         R_near, a_near = judge.best_near(p.candidates[k].R)
         gain, apart = a_near - float(agree[ch.taken]), rotation_angle_deg(R_near @ p.candidates[k].R.T)
         look["nearby"] = {"agreement": a_near, "apart_deg": apart}
-    if ch.short is not None or not kept or not refined or not gain < bar:
-        lost = (_short_note(ch, answers) if ch.short is not None else
+    if not ch.decides or not kept or not refined or not gain < bar:
+        lost = (_short_note(ch, answers, bar) if not ch.decides else
                 f"its best answer (candidate {k}) is beyond the matching's bar" if not kept else
                 f"its best answer (candidate {k}) was not refined" if not refined else
                 f"a rotation {apart:.1f} deg from its best answer agrees better by {gain:.3f} (bar {bar:g}): that "
@@ -356,29 +358,42 @@ class LookChoice:
 
     #: the answer that agrees best
     first: int
-    #: the answers within :data:`LOOK_SAME_DEG` of it (itself included), which the look does not tell apart
+    #: the answers the look does not tell from it (itself included): within :data:`LOOK_SAME_DEG`
+    #: of it, their agreement within the bar of its
     same: list
     #: the geometry's first of them: the answer the look would take
     taken: int
     #: the first one's agreement over the best of the other answers (NaN: there is none)
     margin: float
     #: None when the look ranks every other answer below it enough; else ``(j, margin, needed)`` for the
-    #: other answer ``j`` it does not (``j`` None: no other answer; all lie within the same degrees)
+    #: other answer ``j`` it does not (``j`` None: there is no other answer)
     short: tuple | None
+    #: the answers among ``same`` within the matching's bar of the one taken: the geometry does not
+    #: tell them from it either
+    tied: list
+
+    @property
+    def decides(self) -> bool:
+        """Whether the look takes ``taken`` (the geometry's bar and the rotations near it aside)."""
+        return self.short is None and not self.tied
 
 
-def look_choice(score, rotations, bar: float) -> LookChoice:
+def look_choice(score, rotations, costs, bar: float, matching_bar: float) -> LookChoice:
     """The answer the images' look takes among answers ranked by the geometry (in that order) with
-    agreements ``score`` (as :func:`ranked_agreement` gives them) and ``rotations``: the one that
-    agrees best and those within :data:`LOOK_SAME_DEG` of it are one answer to the look, the
-    geometry's first of them is taken; every other answer must agree less, by ``bar`` when the
-    geometry ranks it ahead of the one taken (:func:`settle_by_look`)."""
+    agreements ``score`` (as :func:`ranked_agreement` gives them), ``rotations`` and the matching's
+    ``costs``: the one that agrees best and those within :data:`LOOK_SAME_DEG` of it whose agreement
+    is within ``bar`` of its are one answer to the look, and the geometry's first of them is taken
+    if the geometry tells it from the others (each costs ``matching_bar`` more); every other answer
+    must agree less, by ``bar`` when the geometry ranks it ahead of the one taken
+    (:func:`settle_by_look`)."""
     from .pose import rotation_angle_deg
 
     score = np.asarray(score, dtype=float)
     first = int(np.argmax(score))
-    same = [j for j, R in enumerate(rotations) if rotation_angle_deg(R @ rotations[first].T) < LOOK_SAME_DEG]
+    same = [j for j, R in enumerate(rotations)
+            if rotation_angle_deg(R @ rotations[first].T) < LOOK_SAME_DEG and score[first] - score[j] < bar]
     taken = min(same)
+    tied = [j for j in same if j != taken and costs[j] - costs[taken] < matching_bar]
     others = [j for j in range(len(score)) if j not in same]
     gaps = [float(score[first] - score[j]) for j in others]
     short = None if others else (None, float("nan"), 0.0)
@@ -387,14 +402,19 @@ def look_choice(score, rotations, bar: float) -> LookChoice:
         if not (m > 0.0 and m >= need):
             short = (j, m, need)
             break
-    return LookChoice(first, same, taken, min(gaps) if gaps else float("nan"), short)
+    return LookChoice(first, same, taken, min(gaps) if gaps else float("nan"), short, tied)
 
 
-def _short_note(ch: LookChoice, answers) -> str:
-    """Why the look does not take an answer (:attr:`LookChoice.short`), for the notes."""
+def _short_note(ch: LookChoice, answers, bar: float) -> str:
+    """Why the look does not take an answer (:attr:`LookChoice.short`, :attr:`LookChoice.tied`)."""
+    if ch.short is None:
+        return (f"it does not tell candidates {answers[ch.taken]} and {answers[ch.tied[0]]} apart (at most "
+                f"{LOOK_SAME_DEG:g} deg apart, agreements within {bar:g}), nor does the geometry (costs within "
+                f"the matching's bar)")
     j, m, need = ch.short
     if j is None:
-        return f"its answers all lie within {LOOK_SAME_DEG:g} deg of one another: it does not tell them apart"
+        return (f"its answers all lie within {LOOK_SAME_DEG:g} deg of its best, their agreements within {bar:g}: "
+                f"it does not tell them apart")
     if need > 0.0:
         return (f"margin {m:.3f} over candidate {answers[j]} (which the geometry ranks ahead of candidate "
                 f"{answers[ch.taken]}) against a bar of {need:g}")

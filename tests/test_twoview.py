@@ -310,6 +310,10 @@ def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street, 
     _, a, b, R_gt, _ = street
     res = copy.deepcopy(held_ambiguous)
     assert res.pose.ambiguous and res.pose.evidence["ambiguous_by"] == ["margin"]
+    # the matching's bar between the first rival's cost and the others' (as a bar of 25-40 keeps the
+    # rivals within it, and the rest beyond: the look asks the geometry of answers it cannot tell apart)
+    gaps = sorted(c.cost - res.pose.candidates[0].cost for c in res.pose.candidates[1:])
+    res.pose.evidence["bar"] = 0.5 * (gaps[0] + gaps[1])
     other, low, swap, high = (copy.deepcopy(res) for _ in range(4))
     R0 = res.pose.R.copy()
     decided = settle_by_look(res, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]))
@@ -603,10 +607,10 @@ def test_the_threads_asked_of_the_image_path_reach_each_refinement(with_prior_al
 
 
 def test_the_look_takes_the_geometrys_first_of_the_answers_it_cannot_tell_apart():
-    """look_choice: the answers within LOOK_SAME_DEG of the one that agrees best are one answer to
-    the look, and the geometry's first of them (the lowest index) is taken; every other answer must
-    agree less, by the bar when the geometry ranks it ahead of the one taken, by any margin when it
-    ranks it behind."""
+    """look_choice: the answers within LOOK_SAME_DEG of the one that agrees best, their agreement
+    within the bar of its, are one answer to the look, and the geometry's first of them (the lowest
+    index) is taken when the others cost the matching's bar more; every other answer must agree
+    less, by the bar when the geometry ranks it ahead of the one taken, by any margin when behind."""
     from scipy.spatial.transform import Rotation
 
     from catadioptric.twoview import LOOK_SAME_DEG, look_choice
@@ -616,20 +620,26 @@ def test_the_look_takes_the_geometrys_first_of_the_answers_it_cannot_tell_apart(
 
     # 0: a half-turn, 1: the truth's neighbour 0.8 LOOK_SAME_DEG away, 2: the truth, 3: a quarter turn
     Rs = [turn(180.0), turn(0.8 * LOOK_SAME_DEG), turn(0.0), turn(90.0)]
-    ch = look_choice([0.40, 0.55, 0.60, 0.58], Rs, 0.1)
-    assert (ch.first, ch.same, ch.taken) == (2, [1, 2], 1)
-    assert np.isclose(ch.margin, 0.02) and ch.short is None  # 3 ranks behind 1: less agreement is enough
-    # the neighbour just beyond LOOK_SAME_DEG is another answer to the look: 2 is taken, and the
-    # neighbour, which the geometry ranks ahead of it, must agree less by the bar
-    Rs[1] = turn(1.01 * LOOK_SAME_DEG)
-    ch = look_choice([0.40, 0.55, 0.60, 0.58], Rs, 0.1)
-    assert (ch.first, ch.same, ch.taken) == (2, [2], 2)
-    assert ch.short[0] == 1 and np.isclose(ch.short[1], 0.05) and ch.short[2] == 0.1
-    assert look_choice([0.40, 0.45, 0.60, 0.58], Rs, 0.1).short is None
+    costs = [0.0, 10.0, 50.0, 60.0]  # the neighbour beyond the matching's bar (25) of nothing ahead of it
+    ch = look_choice([0.40, 0.55, 0.60, 0.58], Rs, costs, 0.1, 25.0)
+    assert (ch.first, ch.same, ch.taken, ch.tied) == (2, [1, 2], 1, [])
+    assert np.isclose(ch.margin, 0.02) and ch.short is None and ch.decides  # 3 ranks behind 1: less is enough
+    # the truth within the matching's bar of its neighbour: neither cue tells them apart
+    ch = look_choice([0.40, 0.55, 0.60, 0.58], Rs, [0.0, 10.0, 30.0, 60.0], 0.1, 25.0)
+    assert ch.tied == [2] and ch.short is None and not ch.decides
+    # the neighbour agreeing less by the bar is told apart: 2 is taken, and the neighbour, which the
+    # geometry ranks ahead of it, must agree less by the bar; so must one just beyond LOOK_SAME_DEG
+    for R1, a1 in ((turn(0.8 * LOOK_SAME_DEG), 0.45), (turn(1.01 * LOOK_SAME_DEG), 0.55)):
+        Rs[1] = R1
+        ch = look_choice([0.40, a1, 0.60, 0.58], Rs, costs, 0.1, 25.0)
+        assert (ch.first, ch.same, ch.taken) == (2, [2], 2)
+        assert ch.decides == (a1 == 0.45)
+        if a1 == 0.55:
+            assert ch.short[0] == 1 and np.isclose(ch.short[1], 0.05) and ch.short[2] == 0.1
     # an answer the geometry ranks behind that agrees as well is not told apart either
-    ch = look_choice([0.40, 0.45, 0.60, 0.60], Rs, 0.1)
+    ch = look_choice([0.40, 0.45, 0.60, 0.60], Rs, costs, 0.1, 25.0)
     assert ch.short[:2] == (3, 0.0) and ch.short[2] == 0.0
-    # the geometry's first answer needs only to lead; all answers within the degrees: nothing to tell apart
-    assert look_choice([0.61, 0.45, 0.60, 0.20], Rs, 0.1).short is None
-    ch = look_choice([0.3, 0.5], [turn(0.0), turn(0.5 * LOOK_SAME_DEG)], 0.1)
-    assert ch.taken == 0 and ch.short[0] is None and np.isnan(ch.margin)
+    # the geometry's first answer needs only to lead; all answers one to the look: nothing to tell apart
+    assert look_choice([0.61, 0.45, 0.60, 0.20], Rs, costs, 0.1, 25.0).decides
+    ch = look_choice([0.3, 0.35], [turn(0.0), turn(0.5 * LOOK_SAME_DEG)], [0.0, 30.0], 0.1, 25.0)
+    assert ch.taken == 0 and ch.short[0] is None and np.isnan(ch.margin) and not ch.decides
