@@ -238,8 +238,8 @@ _JOINT_AGREE_SIGMA = 5.0 * 2.5
 
 
 #: the agreement of the images (:func:`catadioptric.photometric.rotation_agreement`, a correlation) by
-#: which the answer the images' look takes must beat each answer the geometry ranks ahead of it, for
-#: :func:`settle_by_look` to decide an answer left ambiguous (those it ranks behind need only agree less)
+#: which an answer other than the geometry's first must beat every other answer its directions allow,
+#: for :func:`settle_by_look` to decide an answer left ambiguous (the geometry's first needs only to lead)
 LOOK_BAR = 0.1
 
 #: answers whose rotations lie closer than this (degrees) are one answer to the images' look
@@ -263,9 +263,9 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     chosen). The answers within :data:`LOOK_SAME_DEG` of the one that agrees best, their agreement
     within ``bar`` of its, are one answer to the look, and the geometry's first of them is taken
     when the geometry tells it from the others (:func:`look_choice`). It is the answer when
-    the look ranks every other answer below it, by at least ``bar`` each answer the geometry ranks
-    ahead of it (the look then overturns the lines' ranking; an answer the geometry ranks behind needs
-    only to rank behind: the two cues agree), the geometry keeps it (its cost within the matching's
+    the look ranks every other answer below it by at least ``bar`` (by any margin when it is the
+    geometry's own first answer: the two cues then agree, and only an answer that overturns the
+    lines' ranking needs the bar), the geometry keeps it (its cost within the matching's
     bar of the best: one of the answers the geometry could not tell apart, refined as the best was),
     and no rotation near it agrees better by ``bar``
     (:meth:`~catadioptric.photometric.RotationAgreement.best_near`: the answer is where the images
@@ -398,7 +398,7 @@ def look_choice(score, rotations, costs, bar: float, matching_bar: float) -> Loo
     gaps = [float(score[first] - score[j]) for j in others]
     short = None if others else (None, float("nan"), 0.0)
     for j, m in zip(others, gaps):
-        need = bar if j < taken else 0.0
+        need = bar if taken > 0 else 0.0
         if not (m > 0.0 and m >= need):
             short = (j, m, need)
             break
@@ -416,8 +416,7 @@ def _short_note(ch: LookChoice, answers, bar: float) -> str:
         return (f"its answers all lie within {LOOK_SAME_DEG:g} deg of its best, their agreements within {bar:g}: "
                 f"it does not tell them apart")
     if need > 0.0:
-        return (f"margin {m:.3f} over candidate {answers[j]} (which the geometry ranks ahead of candidate "
-                f"{answers[ch.taken]}) against a bar of {need:g}")
+        return f"margin {m:.3f} over candidate {answers[j]} against a bar of {need:g}"
     return f"candidate {answers[j]} agrees as well as its best (margin {m:.3f})"
 
 
@@ -431,12 +430,7 @@ def _decided_note(ch: LookChoice, answers, score, unseen, bar: float) -> str:
     if ch.first != ch.taken:
         text += (f" (it agrees best as candidate {answers[ch.first]}, within {LOOK_SAME_DEG:g} deg of it: the look "
                  f"does not tell them apart, and the geometry ranks candidate {k} first)")
-    if ch.taken > 0:
-        ahead = min(float(score[ch.first] - score[j]) for j in range(ch.taken))
-        which = "the answer" if ch.taken == 1 else f"each of the {ch.taken} answers"
-        text += (f"; than {which} the geometry ranks ahead of it by {ahead:.3f}, against a bar of "
-                 f"{bar:g} (those it ranks behind need only agree less)")
-    elif ch.margin >= bar:
+    if ch.taken > 0 or ch.margin >= bar:
         text += f", against a bar of {bar:g}"
     else:
         text += f", confirming the lines' own first answer (another answer would need {bar:g})"

@@ -351,21 +351,19 @@ def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street, 
     assert swap.pose.evidence["look"]["best"] == 1 and not swap.pose.ambiguous
     assert np.array_equal(swap.pose.R, R0) and swap.pose.candidates[0] is right
     assert swap.family_map == res.family_map and np.isclose(swap.pose.margin, res.pose.margin)
-    # overturning the lines' ranking needs the bar over the answer the geometry put ahead, not over
-    # those it ranks behind: with a bar between the two margins decided, above the first ambiguous
-    ahead = agree[0] - agree[1]
-    assert ahead > 2.0 * look["margin"]
-    for bar, decides in ((0.5 * (ahead + look["margin"]), True), (2.0 * ahead, False)):
-        h = copy.deepcopy(swap_high)
-        p = h.pose
-        p.candidates = [wrong, right, *[c for i, c in enumerate(p.candidates) if i not in (0, j)]]
-        p.rivals = {1: copy.deepcopy(res.pose)}
-        p.R, p.ambiguous = wrong.R, True
-        p.evidence["ambiguous_by"] = ["margin"]
-        assert settle_by_look(h, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]), bar=bar) == decides
-        assert h.pose.ambiguous != decides and h.pose.evidence["look"]["best"] == 1
-        note = h.pose.notes[0 if decides else -1]
-        assert ("than the answer the geometry ranks ahead of it" if decides else "against a bar of") in note
+    # overturning the lines' ranking needs the bar over every other answer, those the geometry ranks
+    # behind too (on wide pairs the look has put a wrong answer first by 0.005 over one it ranks
+    # behind, validate/NOTES.md): above the look's margin the answer stays ambiguous
+    p = swap_high.pose
+    p.candidates = [wrong, right, *[c for i, c in enumerate(p.candidates) if i not in (0, j)]]
+    p.rivals = {1: copy.deepcopy(res.pose)}
+    p.R, p.ambiguous = wrong.R, True
+    p.evidence["ambiguous_by"] = ["margin"]
+    assert agree[0] - agree[1] > 2.0 * look["margin"]  # over the answer put ahead it would pass
+    assert not settle_by_look(swap_high, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]),
+                              bar=2.0 * look["margin"])
+    assert swap_high.pose.ambiguous and swap_high.pose.evidence["look"]["best"] == 1
+    assert "against a bar of" in swap_high.pose.notes[-1]
     # ambiguous for another reason (a rival the geometry could not score): the look is not asked
     other.pose.evidence["ambiguous_by"] = ["margin", "unscored"]
     assert not settle_by_look(other, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]))
@@ -610,7 +608,7 @@ def test_the_look_takes_the_geometrys_first_of_the_answers_it_cannot_tell_apart(
     """look_choice: the answers within LOOK_SAME_DEG of the one that agrees best, their agreement
     within the bar of its, are one answer to the look, and the geometry's first of them (the lowest
     index) is taken when the others cost the matching's bar more; every other answer must agree
-    less, by the bar when the geometry ranks it ahead of the one taken, by any margin when behind."""
+    less by the bar, by any margin when the one taken is the geometry's first."""
     from scipy.spatial.transform import Rotation
 
     from catadioptric.twoview import LOOK_SAME_DEG, look_choice
@@ -620,26 +618,27 @@ def test_the_look_takes_the_geometrys_first_of_the_answers_it_cannot_tell_apart(
 
     # 0: a half-turn, 1: the truth's neighbour 0.8 LOOK_SAME_DEG away, 2: the truth, 3: a quarter turn
     Rs = [turn(180.0), turn(0.8 * LOOK_SAME_DEG), turn(0.0), turn(90.0)]
-    costs = [0.0, 10.0, 50.0, 60.0]  # the neighbour beyond the matching's bar (25) of nothing ahead of it
-    ch = look_choice([0.40, 0.55, 0.60, 0.58], Rs, costs, 0.1, 25.0)
+    costs = [0.0, 10.0, 50.0, 60.0]  # the truth beyond the matching's bar (25) of its neighbour
+    ch = look_choice([0.40, 0.55, 0.60, 0.48], Rs, costs, 0.1, 25.0)
     assert (ch.first, ch.same, ch.taken, ch.tied) == (2, [1, 2], 1, [])
-    assert np.isclose(ch.margin, 0.02) and ch.short is None and ch.decides  # 3 ranks behind 1: less is enough
+    assert np.isclose(ch.margin, 0.12) and ch.short is None and ch.decides
+    # an answer the geometry ranks behind must agree less by the bar too
+    ch = look_choice([0.40, 0.55, 0.60, 0.58], Rs, costs, 0.1, 25.0)
+    assert ch.short[0] == 3 and np.isclose(ch.short[1], 0.02) and ch.short[2] == 0.1 and not ch.decides
     # the truth within the matching's bar of its neighbour: neither cue tells them apart
-    ch = look_choice([0.40, 0.55, 0.60, 0.58], Rs, [0.0, 10.0, 30.0, 60.0], 0.1, 25.0)
+    ch = look_choice([0.40, 0.55, 0.60, 0.48], Rs, [0.0, 10.0, 30.0, 60.0], 0.1, 25.0)
     assert ch.tied == [2] and ch.short is None and not ch.decides
-    # the neighbour agreeing less by the bar is told apart: 2 is taken, and the neighbour, which the
-    # geometry ranks ahead of it, must agree less by the bar; so must one just beyond LOOK_SAME_DEG
+    # the neighbour agreeing less by the bar is told apart, and so is one just beyond LOOK_SAME_DEG:
+    # 2 is taken, and the neighbour must agree less by the bar
     for R1, a1 in ((turn(0.8 * LOOK_SAME_DEG), 0.45), (turn(1.01 * LOOK_SAME_DEG), 0.55)):
         Rs[1] = R1
-        ch = look_choice([0.40, a1, 0.60, 0.58], Rs, costs, 0.1, 25.0)
+        ch = look_choice([0.40, a1, 0.60, 0.48], Rs, costs, 0.1, 25.0)
         assert (ch.first, ch.same, ch.taken) == (2, [2], 2)
         assert ch.decides == (a1 == 0.45)
         if a1 == 0.55:
             assert ch.short[0] == 1 and np.isclose(ch.short[1], 0.05) and ch.short[2] == 0.1
-    # an answer the geometry ranks behind that agrees as well is not told apart either
-    ch = look_choice([0.40, 0.45, 0.60, 0.60], Rs, costs, 0.1, 25.0)
-    assert ch.short[:2] == (3, 0.0) and ch.short[2] == 0.0
     # the geometry's first answer needs only to lead; all answers one to the look: nothing to tell apart
     assert look_choice([0.61, 0.45, 0.60, 0.20], Rs, costs, 0.1, 25.0).decides
+    assert not look_choice([0.61, 0.45, 0.61, 0.20], Rs, costs, 0.1, 25.0).decides
     ch = look_choice([0.3, 0.35], [turn(0.0), turn(0.5 * LOOK_SAME_DEG)], [0.0, 30.0], 0.1, 25.0)
     assert ch.taken == 0 and ch.short[0] is None and np.isnan(ch.margin) and not ch.decides
