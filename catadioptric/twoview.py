@@ -384,7 +384,7 @@ def look_choice(score, rotations, costs, bar: float, matching_bar: float) -> Loo
     ``costs``: the one that agrees best and those within :data:`LOOK_SAME_DEG` of it whose agreement
     is within ``bar`` of its are one answer to the look, and the geometry's first of them is taken
     if the geometry tells it from the others (each costs ``matching_bar`` more); every other answer
-    must agree less, by ``bar`` when the geometry ranks it ahead of the one taken
+    must agree less by ``bar``, by any margin when the one taken is the geometry's first
     (:func:`settle_by_look`)."""
     from .pose import rotation_angle_deg
 
@@ -395,14 +395,12 @@ def look_choice(score, rotations, costs, bar: float, matching_bar: float) -> Loo
     taken = min(same)
     tied = [j for j in same if j != taken and costs[j] - costs[taken] < matching_bar]
     others = [j for j in range(len(score)) if j not in same]
-    gaps = [float(score[first] - score[j]) for j in others]
-    short = None if others else (None, float("nan"), 0.0)
-    for j, m in zip(others, gaps):
-        need = bar if taken > 0 else 0.0
-        if not (m > 0.0 and m >= need):
-            short = (j, m, need)
-            break
-    return LookChoice(first, same, taken, min(gaps) if gaps else float("nan"), short, tied)
+    if not others:
+        return LookChoice(first, same, taken, float("nan"), (None, float("nan"), 0.0), tied)
+    j = max(others, key=lambda i: score[i])
+    margin, need = float(score[first] - score[j]), bar if taken > 0 else 0.0
+    short = None if margin > 0.0 and margin >= need else (j, margin, need)
+    return LookChoice(first, same, taken, margin, short, tied)
 
 
 def _short_note(ch: LookChoice, answers, bar: float) -> str:

@@ -322,8 +322,10 @@ def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street, 
     assert look["candidates"][0] == 0 and len(agree) == len(look["candidates"]) >= 2
     # on this pair the look ranks the first answer, the right one, first
     assert look["best"] == 0 and rotation_angle_deg(res.pose.R @ R_gt.T) < 0.5, look
-    # the margin is over the answers more than LOOK_SAME_DEG from it (those nearer are the same to the look)
-    far = [rotation_angle_deg(res.pose.candidates[k].R @ R0.T) >= LOOK_SAME_DEG for k in look["candidates"]]
+    # the margin is over the answers the look tells from it (those within LOOK_SAME_DEG of it, their
+    # agreement within the bar of its, are the same to the look)
+    far = [rotation_angle_deg(res.pose.candidates[k].R @ R0.T) >= LOOK_SAME_DEG or agree[0] - x >= LOOK_BAR
+           for k, x in zip(look["candidates"], agree)]
     assert np.isclose(look["margin"], agree[0] - agree[far].max()) and look["bar"] == LOOK_BAR
     assert look["margin"] > 0 and decided == look["decided"] == (not res.pose.ambiguous)
     assert decided, res.pose.notes  # its nearby check passes: a right answer
