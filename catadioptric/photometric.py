@@ -23,7 +23,7 @@ import numpy as np
 from ._checks import CatadioptricError, as_count, as_scalar
 
 __all__ = ["rotation_agreement", "RotationAgreement", "BLUR_PX", "STEP", "MIN_SAMPLES", "NEAR_START_DEG",
-           "NEAR_EVALS"]
+           "NEAR_EVALS", "BLOCKS"]
 
 #: the Gaussian blur of both images' luminance (pixels) before they are compared
 BLUR_PX = 3.0
@@ -34,6 +34,8 @@ MIN_SAMPLES = 200
 #: :meth:`RotationAgreement.best_near`: the search's first simplex (degrees) and its most agreements
 NEAR_START_DEG = 3.0
 NEAR_EVALS = 150
+#: :meth:`RotationAgreement.margin`'s blocks of B's rays: sectors of azimuth, bands of elevation
+BLOCKS = (8, 2)
 
 
 def rotation_agreement(image_a, image_b, cam_a, cam_b, rotations, *, masks=(None, None), step: int = STEP,
@@ -48,6 +50,30 @@ def rotation_agreement(image_a, image_b, cam_a, cam_b, rotations, *, masks=(None
     :class:`RotationAgreement` keeps the images' preparation for more rotations."""
     return RotationAgreement(image_a, image_b, cam_a, cam_b, masks=masks, step=step, blur_px=blur_px,
                              min_samples=min_samples)(rotations)
+
+
+def _rotations(rotations) -> np.ndarray:
+    R = np.asarray(rotations, dtype=float)
+    if R.ndim != 3 or R.shape[1:] != (3, 3) or not np.all(np.isfinite(R)):
+        raise CatadioptricError(f"rotations: expected finite (K, 3, 3) rotation matrices, got shape {R.shape}")
+    return R
+
+
+def _correlation(a, b) -> float:
+    """Pearson's correlation of two samples (0 when either is constant; NaN when empty)."""
+    if len(a) == 0:
+        return float("nan")
+    a, b = a - a.mean(), b - b.mean()
+    den = math.sqrt(float(a @ a) * float(b @ b))
+    return float(a @ b) / den if den > 0 else 0.0
+
+
+def _blocks(d) -> np.ndarray:
+    az = np.arctan2(d[:, 1], d[:, 0])
+    sector = np.minimum((az + np.pi) / (2 * np.pi) * BLOCKS[0], BLOCKS[0] - 1).astype(int)
+    band = np.searchsorted(np.quantile(d[:, 2], np.linspace(0, 1, BLOCKS[1] + 1)[1:-1]), d[:, 2], side="right") \
+        if len(d) else np.zeros(0, int)
+    return sector * BLOCKS[1] + band
 
 
 class RotationAgreement:
@@ -87,37 +113,70 @@ class RotationAgreement:
         uv_b = np.stack([u[keep], v[keep]], axis=-1).astype(float)
         rays = cam_b.backproject(uv_b)
         ok = np.asarray(rays.valid, bool) & np.all(np.isfinite(rays.directions), axis=-1)
-        self.d_b = rays.directions[ok]
+        #: B's sampled pixels (u, v) and their rays' directions, ``(N, 2)`` and ``(N, 3)``
+        self.uv_b, self.d_b = uv_b[ok], rays.directions[ok]
         self.lum_b = grey[1][uv_b[ok, 1].astype(int), uv_b[ok, 0].astype(int)]
+        #: each sampled ray's block for :meth:`margin`'s jackknife, ``(N,)``: ``BLOCKS[0]`` sectors of
+        #: azimuth about the z axis of B's frame times ``BLOCKS[1]`` bands of elevation split at its quantiles
+        self.blocks = _blocks(self.d_b)
         self.grey_a, self.usable_a, self.cam_a = grey[0], usable[0], cam_a
 
     def __call__(self, rotations) -> np.ndarray:
+        R = _rotations(rotations)
+        out = np.full(len(R), np.nan)
+        for k, Rk in enumerate(R):
+            lum_a, hit = self._seen(Rk)
+            if hit is not None:
+                out[k] = _correlation(lum_a, self.lum_b[hit])
+        return out
+
+    def _seen(self, R):
+        """A's blurred luminance at the vanishing points of B's sampled rays turned by ``R`` and which
+        of B's rays A sees (``(lum_a, hit)``); ``(None, None)`` below ``min_samples``."""
         from scipy.ndimage import map_coordinates
 
-        R = np.asarray(rotations, dtype=float)
-        if R.ndim != 3 or R.shape[1:] != (3, 3) or not np.all(np.isfinite(R)):
-            raise CatadioptricError(f"rotations: expected finite (K, 3, 3) rotation matrices, got shape {R.shape}")
-        out = np.full(len(R), np.nan)
         d_b = self.d_b
         if len(d_b) < self.min_samples:
-            return out
+            return None, None
         Ha, Wa = self.grey_a.shape
-        for k, Rk in enumerate(R):
-            vp = self.cam_a.vanishing_points(d_b @ Rk)  # R^T d for each row d
-            seen = vp.valid & vp.in_image
-            uv_a = vp.uv[np.arange(len(d_b)), np.argmax(seen, axis=-1)]
-            hit = seen.any(axis=-1)
-            uv_a = np.where(hit[:, None], uv_a, 0.0)
-            col = np.clip(np.rint(uv_a[:, 0]), 0, Wa - 1).astype(int)
-            row = np.clip(np.rint(uv_a[:, 1]), 0, Ha - 1).astype(int)
-            hit &= self.usable_a[row, col]
-            if hit.sum() < self.min_samples:
-                continue
-            lum_a = map_coordinates(self.grey_a, [uv_a[hit, 1], uv_a[hit, 0]], order=1, mode="nearest")
-            a, b = lum_a - lum_a.mean(), self.lum_b[hit] - self.lum_b[hit].mean()
-            den = math.sqrt(float(a @ a) * float(b @ b))
-            out[k] = float(a @ b) / den if den > 0 else 0.0
-        return out
+        vp = self.cam_a.vanishing_points(d_b @ R)  # R^T d for each row d
+        seen = vp.valid & vp.in_image
+        uv_a = vp.uv[np.arange(len(d_b)), np.argmax(seen, axis=-1)]
+        hit = seen.any(axis=-1)
+        uv_a = np.where(hit[:, None], uv_a, 0.0)
+        col = np.clip(np.rint(uv_a[:, 0]), 0, Wa - 1).astype(int)
+        row = np.clip(np.rint(uv_a[:, 1]), 0, Ha - 1).astype(int)
+        hit &= self.usable_a[row, col]
+        if hit.sum() < self.min_samples:
+            return None, None
+        return map_coordinates(self.grey_a, [uv_a[hit, 1], uv_a[hit, 0]], order=1, mode="nearest"), hit
+
+    def margin(self, R_first, R_other) -> tuple[float, float]:
+        """``(margin, standard error)``: the agreement under ``R_first`` minus that under ``R_other``
+        (each (3, 3)) and the margin's jackknife standard error over :data:`BLOCKS` blocks of B's
+        sampled rays (sectors of azimuth about the z axis of B's frame, above and below their median
+        elevation, :attr:`blocks`; each block that either rotation sees left out in turn, both
+        correlations computed again): how much the margin owes to one part of the image. NaN (both)
+        when either rotation leaves too little of B seen in A (the error alone with fewer than two blocks)."""
+        la, ha = self._seen(np.asarray(R_first, dtype=float))
+        lo, ho = self._seen(np.asarray(R_other, dtype=float))
+        if ha is None or ho is None:
+            return float("nan"), float("nan")
+        full_a, full_o = np.full(len(self.d_b), np.nan), np.full(len(self.d_b), np.nan)
+        full_a[ha], full_o[ho] = la, lo
+        block = self.blocks
+
+        def diff(keep):
+            a, o = ha & keep, ho & keep
+            return _correlation(full_a[a], self.lum_b[a]) - _correlation(full_o[o], self.lum_b[o])
+
+        whole = diff(np.ones(len(block), bool))
+        theta = np.array([diff(block != b) for b in np.unique(block[ha | ho])])
+        theta = theta[np.isfinite(theta)]
+        if len(theta) < 2:
+            return whole, float("nan")
+        k = len(theta)
+        return whole, float(math.sqrt((k - 1) / k * float(np.sum((theta - theta.mean()) ** 2))))
 
     def best_near(self, R, *, start_deg: float = NEAR_START_DEG, max_evals: int = NEAR_EVALS):
         """``(R_best, agreement)``: the rotation near ``R`` (3, 3) where the images agree best, by

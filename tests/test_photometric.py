@@ -91,3 +91,36 @@ def test_the_rotation_where_the_images_agree_best_is_found_near_a_wrong_one(room
     assert rotation_angle_deg(R_best @ R.T) < 1.0, rotation_angle_deg(R_best @ R.T)
     assert a_best > 0.98 and a_best > judge(R_off[None])[0] + 0.2
 
+
+
+def test_the_margin_and_its_jackknife_error_over_blocks_of_b(room):
+    """:meth:`RotationAgreement.margin`: the difference of the two agreements, and its standard error
+    by the jackknife over the blocks of B's sampled rays, each block left out by masking its pixels
+    in image B (an independent route: a new judge per block)."""
+    from catadioptric.photometric import BLOCKS, RotationAgreement
+
+    cam, img = room
+    R = _rot([0.3, -0.2, 1.0], 35)
+    img_b, seen = _turned(cam, img, R)
+    mask_b = (seen * 255).astype(np.uint8)
+    judge = RotationAgreement(img, img_b, cam, cam, masks=(None, mask_b))
+    rival = R @ _rot([0, 0, 1], 180)
+    m, se = judge.margin(R, rival)
+    a = judge(np.stack([R, rival]))
+    assert m == pytest.approx(a[0] - a[1], abs=1e-12)
+    assert set(np.unique(judge.blocks)) <= set(range(BLOCKS[0] * BLOCKS[1])) and len(np.unique(judge.blocks)) > 8
+    theta = []
+    for b in np.unique(judge.blocks):
+        mask = mask_b.copy()
+        uv = judge.uv_b[judge.blocks == b].astype(int)
+        mask[uv[:, 1], uv[:, 0]] = 0
+        ab = rotation_agreement(img, img_b, cam, cam, [R, rival], masks=(None, mask))
+        theta.append(ab[0] - ab[1])
+    theta = np.array(theta)
+    k = len(theta)
+    assert se == pytest.approx(np.sqrt((k - 1) / k * np.sum((theta - theta.mean()) ** 2)), rel=1e-9)
+    # B made by the turn itself: the right rotation leads by far more than its own error
+    assert m > 0.5 and m > 5 * se, (m, se)
+    # nothing of B seen in A under one of them: nothing measured
+    none = np.zeros(img.shape[:2], np.uint8)
+    assert np.isnan(RotationAgreement(img, img_b, cam, cam, masks=(none, mask_b)).margin(R, rival)).all()
