@@ -16,7 +16,7 @@ import numpy as np
 from ._checks import CatadioptricError, as_scalar
 
 __all__ = ["ImagePairPose", "relative_pose_from_images", "pose_from_detections", "pair_overlay", "image_pair_summary",
-           "image_pair_markdown", "register", "COVARIANCE_SCALE", "LOOK_BAR", "settle_by_look", "ranked_agreement"]
+           "image_pair_markdown", "register", "COVARIANCE_SCALE", "LOOK_BAR", "LOOK_SIGMAS", "settle_by_look", "check_by_look", "ranked_agreement"]
 
 
 @dataclass
@@ -68,7 +68,8 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
     ``covariance_scale``: the answer's covariance is that of the fit times its square (default
     :data:`COVARIANCE_SCALE`, measured on rendered pairs; 1: the fit's own). ``look``: an answer that
     only its margin left ambiguous is decided by the images' look where it clearly prefers one of
-    the answers the geometry keeps (:func:`settle_by_look`). ``calibration_rms_px``: the cameras'
+    the answers the geometry keeps, and an answer the geometry decided is left ambiguous where the
+    look plainly prefers another (:func:`settle_by_look`, :func:`check_by_look`). ``calibration_rms_px``: the cameras'
     calibration rms in pixels (see :func:`catadioptric.pose.relative_pose`; 0 for a rendered rig).
     For the lines of one planar target that a half-turn about its axes maps onto itself (a
     chessboard, masked), call it with ``look=False``, then
@@ -249,10 +250,16 @@ LOOK_BAR = 0.1
 #: few hundredths of agreement; among such answers (their agreements within the bar) the geometry decides
 LOOK_SAME_DEG = 10.0
 
+#: the standard errors (:meth:`catadioptric.photometric.RotationAgreement.margin`, the jackknife over
+#: blocks of image B) by which the images' look must prefer another answer to the one the geometry
+#: decided for that answer to be left ambiguous (:func:`check_by_look`), the look's bar at least
+LOOK_SIGMAS = 2.0
+
 
 def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, None), *, bar: float = LOOK_BAR) -> bool:
     """Decide an answer that the geometry left ambiguous by its margin alone (no other reason:
-    ``pose.evidence["ambiguous_by"]``) by how the images look under each of its candidates.
+    ``pose.evidence["ambiguous_by"]``) by how the images look under each of its candidates; an
+    answer the geometry decided is checked by the look instead (:func:`check_by_look`).
 
     Each different answer among ``res.pose.candidates`` (rotations more than
     :data:`~catadioptric.pose.labelled.SAME_ANSWER_DEG` apart, the cheapest of each) is scored by
@@ -276,17 +283,16 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     decided) and the notes. Returns whether it decided."""
     from .photometric import RotationAgreement
     from .pose import rotation_angle_deg
-    from .pose.labelled import SAME_ANSWER_DEG
 
     p = res.pose
     ev = p.evidence
+    if ev is not None and not p.ambiguous:
+        check_by_look(res, images, cams, masks, bar=bar)
+        return False
     why = ev.get("ambiguous_by") if ev else None
     if not p.ambiguous or not why or not set(why) <= {"margin", "lines_in_order"}:
         return False
-    answers = []
-    for k, c in enumerate(p.candidates):
-        if np.isfinite(c.cost) and all(rotation_angle_deg(c.R @ p.candidates[j].R.T) > SAME_ANSWER_DEG for j in answers):
-            answers.append(k)
+    answers = _answers(p)
     if len(answers) < 2 or answers[0] != 0:
         return False
     judge = RotationAgreement(images[0], images[1], cams[0], cams[1], masks=masks)
@@ -349,6 +355,71 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
         p = _take_rival(res, k)
     p.ambiguous = False
     p.notes = [note, *p.notes]
+    return True
+
+
+def _answers(p) -> list:
+    """The different answers among ``p.candidates`` (indices): rotations more than
+    :data:`~catadioptric.pose.labelled.SAME_ANSWER_DEG` apart, the cheapest of each, finite costs only."""
+    from .pose import rotation_angle_deg
+    from .pose.labelled import SAME_ANSWER_DEG
+
+    answers = []
+    for k, c in enumerate(p.candidates):
+        if np.isfinite(c.cost) and all(rotation_angle_deg(c.R @ p.candidates[j].R.T) > SAME_ANSWER_DEG for j in answers):
+            answers.append(k)
+    return answers
+
+
+def check_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, None), *, bar: float = LOOK_BAR) -> bool:
+    """Ask the images' look of an answer the geometry decided: when image B agrees with image A
+    turned by another answer (one more than :data:`LOOK_SAME_DEG` from it) better than by the answer
+    itself, by the bar and by :data:`LOOK_SIGMAS` standard errors of that margin
+    (:meth:`~catadioptric.photometric.RotationAgreement.margin`), the two cues contradict each other
+    and the answer is left ambiguous (``pose.evidence["ambiguous_by"]`` gains ``"look"``; a note
+    says by how much). The lines' matching was measured at baselines of 2-8 m (its bar, docs/relative_pose.md);
+    at wider ones it has decided half-turns that the images plainly deny. What was measured goes to
+    ``pose.evidence["look_check"]`` (the answers' candidate indices and agreements, the one that
+    agrees best beyond :data:`LOOK_SAME_DEG`, its margin over the answer and that margin's standard
+    error, the bar, whether it contradicts). Returns whether the answer was left ambiguous; answers
+    already ambiguous, of the label path, or with no other answer are left alone."""
+    from .photometric import RotationAgreement
+    from .pose import rotation_angle_deg
+
+    p = res.pose
+    ev = p.evidence
+    if ev is None or p.ambiguous:
+        return False
+    answers = _answers(p)
+    if len(answers) < 2 or answers[0] != 0:
+        return False
+    R0 = p.candidates[0].R
+    judge = RotationAgreement(images[0], images[1], cams[0], cams[1], masks=masks)
+    agree = judge(np.stack([p.candidates[k].R for k in answers]))
+    far = [i for i, k in enumerate(answers) if rotation_angle_deg(p.candidates[k].R @ R0.T) > LOOK_SAME_DEG
+           and np.isfinite(agree[i])]
+    check = {"candidates": answers, "agreement": [float(a) for a in agree], "rival": None, "margin": float("nan"),
+             "margin_se": float("nan"), "bar": float(bar), "sigmas": LOOK_SIGMAS, "contradicts": False}
+    ev["look_check"] = check
+    if not far or not np.isfinite(agree[0]):
+        return False
+    j = max(far, key=lambda i: agree[i])
+    if not agree[j] > agree[0]:
+        check.update(rival=answers[j], margin=float(agree[j] - agree[0]))
+        return False
+    m, se = judge.margin(p.candidates[answers[j]].R, R0)
+    need = max(bar, LOOK_SIGMAS * se) if np.isfinite(se) else float("nan")
+    check.update(rival=answers[j], margin=m, margin_se=se)
+    if not (np.isfinite(need) and m >= need):
+        return False
+    check["contradicts"] = True
+    p.ambiguous = True
+    ev["ambiguous_by"] = [*ev.get("ambiguous_by", []), "look"]
+    p.notes = [f"ambiguous: the images' look contradicts the lines: image B agrees with image A turned by candidate "
+               f"{answers[j]} ({rotation_angle_deg(p.candidates[answers[j]].R @ R0.T):.0f} deg from the answer; "
+               f"correlation {agree[j]:.3f}) better than by the answer ({agree[0]:.3f}) by {m:.3f}, against a bar of "
+               f"{need:.3f} (the look's bar {bar:g}, or {LOOK_SIGMAS:g} standard errors of that margin over blocks "
+               f"of image B, {se:.3f})", *p.notes]
     return True
 
 
@@ -724,8 +795,8 @@ def register(sub) -> None:
                         "chessboard, masked): an answer whose twin under such a turn is listed is ambiguous "
                         "(implied by --preset chessboard; docs/cameras.md)")
     p.add_argument("--no-look", action="store_true",
-                   help="do not let the images' look decide an answer the geometry leaves ambiguous by its margin "
-                        "(docs/relative_pose.md)")
+                   help="do not let the images' look decide an answer the geometry leaves ambiguous by its margin, "
+                        "nor check one it decided (docs/relative_pose.md)")
     p.add_argument("--denoise", choices=["auto", "nlmeans", "bilateral", "none"],
                    help="denoising before the edges (default auto)")
     p.add_argument("--threshold", type=positive_float, default=None, metavar="PX",

@@ -644,3 +644,58 @@ def test_the_look_takes_the_geometrys_first_of_the_answers_it_cannot_tell_apart(
     assert not look_choice([0.61, 0.45, 0.61, 0.20], Rs, costs, 0.1, 25.0).decides
     ch = look_choice([0.3, 0.35], [turn(0.0), turn(0.5 * LOOK_SAME_DEG)], [0.0, 30.0], 0.1, 25.0)
     assert ch.taken == 0 and ch.short[0] is None and np.isnan(ch.margin) and not ch.decides
+
+
+def test_the_images_look_leaves_ambiguous_an_answer_of_the_geometry_it_contradicts(street, with_prior,
+                                                                                   held_ambiguous, monkeypatch):
+    """An answer the geometry decided is checked by the images' look (check_by_look, which
+    settle_by_look calls on a decided answer): the right answer of the street pair stands; the same
+    pair with a wrong answer put first and decided is left ambiguous when another answer, more than
+    LOOK_SAME_DEG from it, agrees better by the look's bar and LOOK_SIGMAS standard errors of that
+    margin, and stands when the bar is above the margin."""
+    import copy
+
+    from catadioptric.photometric import RotationAgreement
+    from catadioptric.twoview import LOOK_BAR, LOOK_SAME_DEG, LOOK_SIGMAS, check_by_look
+
+    _, a, b, R_gt, _ = street
+    # the right answer, decided by the geometry: checked, not contradicted
+    check = with_prior.pose.evidence["look_check"]
+    assert not with_prior.pose.ambiguous and rotation_angle_deg(with_prior.pose.R @ R_gt.T) < 0.5
+    assert check["contradicts"] is False and check["bar"] == LOOK_BAR and check["sigmas"] == LOOK_SIGMAS
+    assert check["candidates"][0] == 0 and len(check["candidates"]) >= 2
+    # a wrong answer put first (the farthest from the right one) and decided
+    res = copy.deepcopy(held_ambiguous)
+    p = res.pose
+    R_right = p.candidates[0].R.copy()
+    j = max(range(1, len(p.candidates)), key=lambda i: rotation_angle_deg(p.candidates[i].R @ R_right.T))
+    assert rotation_angle_deg(p.candidates[j].R @ R_right.T) > LOOK_SAME_DEG
+    right, wrong = p.candidates[0], p.candidates[j]
+    p.candidates = [wrong, right, *[c for i, c in enumerate(p.candidates) if i not in (0, j)]]
+    p.R, p.ambiguous = wrong.R, False
+    p.evidence["ambiguous_by"] = []
+    high, sigmas = copy.deepcopy(res), copy.deepcopy(res)
+    assert check_by_look(res, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]))
+    c = p.evidence["look_check"]
+    assert p.ambiguous and p.evidence["ambiguous_by"] == ["look"] and c["contradicts"]
+    assert p.notes[0].startswith("ambiguous: the images' look contradicts the lines")
+    # the rival is the answer that agrees best beyond LOOK_SAME_DEG, and the margin is its agreement over the answer's
+    judge = RotationAgreement(a["beauty"], b["beauty"], a["camera"], a["camera"])
+    ag = dict(zip(c["candidates"], c["agreement"]))
+    far = [k for k in c["candidates"] if rotation_angle_deg(p.candidates[k].R @ wrong.R.T) > LOOK_SAME_DEG]
+    assert c["rival"] == max(far, key=ag.get)
+    m, se = judge.margin(p.candidates[c["rival"]].R, wrong.R)
+    assert np.isclose(c["margin"], m) and np.isclose(c["margin"], ag[c["rival"]] - ag[0]) and np.isclose(c["margin_se"], se)
+    assert m >= max(LOOK_BAR, LOOK_SIGMAS * se) and se > 0
+    # with a bar above the margin, the geometry's answer stands (its check recorded)
+    assert not check_by_look(high, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]), bar=1.01 * m)
+    assert not high.pose.ambiguous and high.pose.evidence["ambiguous_by"] == []
+    assert high.pose.evidence["look_check"]["contradicts"] is False
+    # and with the margin below LOOK_SIGMAS of its standard errors
+    import catadioptric.twoview as twoview
+
+    monkeypatch.setattr(twoview, "LOOK_SIGMAS", 1.01 * m / se)
+    assert not check_by_look(sigmas, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]))
+    assert not sigmas.pose.ambiguous and sigmas.pose.evidence["look_check"]["sigmas"] == 1.01 * m / se
+    # an ambiguous answer is not checked
+    assert not check_by_look(res, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]))

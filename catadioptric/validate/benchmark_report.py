@@ -484,11 +484,20 @@ def _geometry_alone(ok: list) -> dict:
 
 def _by_look(ok: list) -> dict:
     """The runs the images' look decided (:func:`catadioptric.twoview.settle_by_look`), and of those
-    more than 10 degrees off; None when the runs carry no record of it (older results)."""
+    more than 10 degrees off; the runs the geometry decided and the look left ambiguous
+    (:func:`catadioptric.twoview.check_by_look`), and of those how many the geometry had answered more
+    than 10 degrees off; None when the runs carry no record of it (older results)."""
     if not ok or any("look_decided" not in x for x in ok):
-        return {"answered_by_look": None, "over_10deg_by_look": None}
+        return {"answered_by_look": None, "over_10deg_by_look": None, "ambiguous_by_look": None,
+                "ambiguous_by_look_over_10deg": None}
     by = [x for x in ok if x["look_decided"]]
-    return {"answered_by_look": len(by), "over_10deg_by_look": sum(x["rotation_error_deg"] > 10 for x in by)}
+    out = {"answered_by_look": len(by), "over_10deg_by_look": sum(x["rotation_error_deg"] > 10 for x in by),
+           "ambiguous_by_look": None, "ambiguous_by_look_over_10deg": None}
+    if all("look_contradicts" in x for x in ok):
+        vetoed = [x for x in ok if x["look_contradicts"]]
+        out |= {"ambiguous_by_look": len(vetoed),
+                "ambiguous_by_look_over_10deg": sum(x["rotation_error_deg"] > 10 for x in vetoed)}
+    return out
 
 
 def _comparable_level(e: dict, prior: str, noises) -> tuple:
@@ -549,6 +558,8 @@ def images_markdown(spec: dict, agg_im: dict, overlays: dict, *, labels: bool = 
                     "translation (m)", "translation direction (deg)"], rows), ""]
     rows = [[k, p, q["runs"] - q["failed"], q["runs"] - q["failed"] - q["ambiguous"], q["over_10deg_unflagged"],
              *(["-", "-"] if q.get("answered_by_look") is None else [q["answered_by_look"], q["over_10deg_by_look"]]),
+             *(["-", "-"] if q.get("ambiguous_by_look") is None else
+               [q["ambiguous_by_look"], q["ambiguous_by_look_over_10deg"]]),
              q["answered_geometry_alone"], q["over_10deg_unflagged_geometry_alone"]]
             for k, e in agg_im.items() for p in priors
             for q in [e["priors"][p]] if q.get("answered_geometry_alone") is not None]
@@ -558,10 +569,14 @@ def images_markdown(spec: dict, agg_im: dict, overlays: dict, *, labels: bool = 
               "the geometry left ambiguous by its margin, docs/relative_pose.md \"The images' look\"), and each "
               "family assignment also scored by the geometry alone (its lines matched again with their sides "
               "ignored, no look; `pose.json`'s `evidence`) held to the same bar: how many pairs each would answer, "
-              "and how many of those more than 10 degrees off.", "",
+              "and how many of those more than 10 degrees off. *Contradicted by the look*: answers the geometry "
+              "decided that the look left ambiguous (another answer agreeing better by the look's bar and two "
+              "standard errors, docs/relative_pose.md), and how many of those the geometry had more than 10 "
+              "degrees off.", "",
               md_table(["configuration / renderer", "prior (deg)", "pairs run", "answered", "> 10 deg off",
-                        "answered by the look", "> 10 deg off, by the look", "answered, geometry alone",
-                        "> 10 deg off, geometry alone"], rows), ""]
+                        "answered by the look", "> 10 deg off, by the look", "contradicted by the look",
+                        "of those > 10 deg off", "answered, geometry alone", "> 10 deg off, geometry alone"],
+                       rows), ""]
     if labels:
         rows = []
         for k, e in agg_im.items():

@@ -88,12 +88,20 @@ def _look(res, R_gt) -> dict:
     the answer it takes (the geometry's first of those within ``LOOK_SAME_DEG`` of the one that
     agrees best), its rotation error, the best agreement's margin over every other answer,
     whether the geometry keeps it within its bar of the best, and how much better a rotation near it
-    agrees (None where that was not looked for)."""
+    agrees (None where that was not looked for); and whether the look, asked of an answer the
+    geometry decided, contradicted it and left it ambiguous (:func:`catadioptric.twoview.check_by_look`;
+    None where it was not asked), with the margin by which the best other answer beyond
+    ``LOOK_SAME_DEG`` agrees better than the answer (negative: worse) and that margin's standard error
+    (None where not measured)."""
     from ..pose import rotation_angle_deg
 
     lk = (res.evidence or {}).get("look")
+    check = (res.evidence or {}).get("look_check")
     out = {"look_decided": None, "look_margin": None, "look_best_error_deg": None, "look_best_within_bar": None,
-           "look_nearby_gain": None}
+           "look_nearby_gain": None, "look_contradicts": None, "look_check_margin": None, "look_check_se": None}
+    if check is not None:
+        out |= {"look_contradicts": bool(check["contradicts"]), "look_check_margin": _number(check["margin"]),
+                "look_check_se": _number(check["margin_se"])}
     if not lk:
         return out
     out |= {"look_decided": bool(lk["decided"]), "look_margin": float(lk["margin"])}
@@ -106,6 +114,11 @@ def _look(res, R_gt) -> dict:
         if lk["nearby"] is not None:
             out["look_nearby_gain"] = float(lk["nearby"]["agreement"] - lk["agreement"][lk["candidates"].index(lk["best"])])
     return out
+
+
+def _number(x) -> float | None:
+    """``x`` as a float, None when it is not finite (JSON has no NaN)."""
+    return float(x) if x is not None and np.isfinite(x) else None
 
 
 def _mahalanobis(res, R_gt, t_gt) -> dict:
