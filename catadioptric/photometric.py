@@ -164,14 +164,30 @@ class RotationAgreement:
             return float("nan"), float("nan")
         full_a, full_o = np.full(len(self.d_b), np.nan), np.full(len(self.d_b), np.nan)
         full_a[ha], full_o[ho] = la, lo
-        block = self.blocks
 
         def diff(keep):
             a, o = ha & keep, ho & keep
             return _correlation(full_a[a], self.lum_b[a]) - _correlation(full_o[o], self.lum_b[o])
 
-        whole = diff(np.ones(len(block), bool))
-        theta = np.array([diff(block != b) for b in np.unique(block[ha | ho])])
+        return self._jackknife(diff, ha | ho)
+
+    def agreement(self, R) -> tuple[float, float]:
+        """``(agreement, standard error)``: the agreement under ``R`` (3, 3), as a call gives it, and
+        its jackknife standard error over the blocks :meth:`margin` uses: whether image B agrees
+        with A turned by ``R`` at all, beyond what one part of the image makes of it. NaN (both) when
+        ``R`` leaves too little of B seen in A."""
+        la, ha = self._seen(np.asarray(R, dtype=float))
+        if ha is None:
+            return float("nan"), float("nan")
+        full = np.full(len(self.d_b), np.nan)
+        full[ha] = la
+        return self._jackknife(lambda keep: _correlation(full[ha & keep], self.lum_b[ha & keep]), ha)
+
+    def _jackknife(self, stat, seen) -> tuple[float, float]:
+        """``stat`` (of a mask over B's sampled rays) on every ray and its jackknife standard error
+        over the :attr:`blocks` among ``seen``."""
+        whole = stat(np.ones(len(self.blocks), bool))
+        theta = np.array([stat(self.blocks != b) for b in np.unique(self.blocks[seen])])
         theta = theta[np.isfinite(theta)]
         if len(theta) < 2:
             return whole, float("nan")

@@ -250,9 +250,12 @@ LOOK_BAR = 0.1
 #: few hundredths of agreement; among such answers (their agreements within the bar) the geometry decides
 LOOK_SAME_DEG = 10.0
 
-#: the standard errors (:meth:`catadioptric.photometric.RotationAgreement.margin`, the jackknife over
-#: blocks of image B) by which the images' look must prefer another answer to the one the geometry
-#: decided for that answer to be left ambiguous (:func:`check_by_look`), the look's bar at least
+#: standard errors (the jackknife over blocks of image B,
+#: :meth:`catadioptric.photometric.RotationAgreement.margin` and ``.agreement``): by this many the
+#: images' look must prefer another answer to the one the geometry decided for that answer to be left
+#: ambiguous (:func:`check_by_look`; and by the look's bar), and image B must agree with image A
+#: turned by an answer for the look to decide it (:func:`settle_by_look`: a look that does not see
+#: the scene under the answer, as at wide baselines, confirms nothing)
 LOOK_SIGMAS = 2.0
 
 
@@ -274,13 +277,15 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     geometry's own first answer: the two cues then agree, and only an answer that overturns the
     lines' ranking needs the bar), the geometry keeps it (its cost within the matching's
     bar of the best: one of the answers the geometry could not tell apart, refined as the best was),
-    and no rotation near it agrees better by ``bar``
+    no rotation near it agrees better by ``bar``
     (:meth:`~catadioptric.photometric.RotationAgreement.best_near`: the answer is where the images
-    agree, not only the best of the answers). ``res`` then holds it, decisive, its candidates first;
+    agree, not only the best of the answers), and image B agrees with image A turned by it by
+    :data:`LOOK_SIGMAS` standard errors of that agreement
+    (:meth:`~catadioptric.photometric.RotationAgreement.agreement`: the look sees the scene under it). ``res`` then holds it, decisive, its candidates first;
     its ``margin`` stays the geometry's (negative when the geometry ranked another first). What was measured
     goes to ``pose.evidence["look"]`` (each answer's candidate index and agreement, the one it ranks
-    first, the answer taken, its margin, the best agreement near it and how far, the bar, whether it
-    decided) and the notes. Returns whether it decided."""
+    first, the answer taken, its margin, the best agreement near it and how far, the standard error
+    of its own agreement, the bar, whether it decided) and the notes. Returns whether it decided."""
     from .photometric import RotationAgreement
     from .pose import rotation_angle_deg
 
@@ -299,7 +304,8 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     agree = judge(np.stack([p.candidates[k].R for k in answers]))
     unseen = ~np.isfinite(agree)
     look = {"candidates": answers, "agreement": [float(a) for a in agree], "best": None, "ranked_first": None,
-            "margin": float("nan"), "nearby": None, "bar": float(bar), "same_deg": LOOK_SAME_DEG, "decided": False}
+            "margin": float("nan"), "nearby": None, "agreement_se": float("nan"), "bar": float(bar),
+            "same_deg": LOOK_SAME_DEG, "decided": False}
     ev["look"] = look
     masked = any(m is not None for m in masks)
 
@@ -341,12 +347,19 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
         R_near, a_near = judge.best_near(p.candidates[k].R)
         gain, apart = a_near - float(agree[ch.taken]), rotation_angle_deg(R_near @ p.candidates[k].R.T)
         look["nearby"] = {"agreement": a_near, "apart_deg": apart}
-    if not ch.decides or not kept or not refined or not gain < bar:
+    seen, seen_se = float("nan"), float("nan")
+    if ch.decides and kept and refined and gain < bar:
+        seen, seen_se = judge.agreement(p.candidates[k].R)
+        look["agreement_se"] = seen_se
+    if not ch.decides or not kept or not refined or not gain < bar or not seen >= LOOK_SIGMAS * seen_se:
         lost = (_short_note(ch, answers, bar) if not ch.decides else
                 f"its best answer (candidate {k}) is beyond the matching's bar" if not kept else
                 f"its best answer (candidate {k}) was not refined" if not refined else
                 f"a rotation {apart:.1f} deg from its best answer agrees better by {gain:.3f} (bar {bar:g}): that "
-                f"answer is not where the images agree")
+                f"answer is not where the images agree" if not gain < bar else
+                f"image B agrees with image A turned by its best answer (candidate {k}) by {seen:.3f}, "
+                f"{seen / seen_se:.1f} standard errors of that agreement (needed: {LOOK_SIGMAS:g}): the look does "
+                f"not see the scene under it")
         p.notes = [*p.notes, f"the images' look did not decide it: {lost}"]
         return False
     look["decided"] = True

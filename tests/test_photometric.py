@@ -96,7 +96,8 @@ def test_the_rotation_where_the_images_agree_best_is_found_near_a_wrong_one(room
 def test_the_margin_and_its_jackknife_error_over_blocks_of_b(room):
     """:meth:`RotationAgreement.margin`: the difference of the two agreements, and its standard error
     by the jackknife over the blocks of B's sampled rays, each block left out by masking its pixels
-    in image B (an independent route: a new judge per block)."""
+    in image B (an independent route: a new judge per block); :meth:`RotationAgreement.agreement`:
+    one rotation's agreement and its standard error the same way."""
     from catadioptric.photometric import BLOCKS, RotationAgreement
 
     cam, img = room
@@ -109,18 +110,23 @@ def test_the_margin_and_its_jackknife_error_over_blocks_of_b(room):
     a = judge(np.stack([R, rival]))
     assert m == pytest.approx(a[0] - a[1], abs=1e-12)
     assert set(np.unique(judge.blocks)) <= set(range(BLOCKS[0] * BLOCKS[1])) and len(np.unique(judge.blocks)) > 8
-    theta = []
+    theta, single = [], []
     for b in np.unique(judge.blocks):
         mask = mask_b.copy()
         uv = judge.uv_b[judge.blocks == b].astype(int)
         mask[uv[:, 1], uv[:, 0]] = 0
         ab = rotation_agreement(img, img_b, cam, cam, [R, rival], masks=(None, mask))
         theta.append(ab[0] - ab[1])
-    theta = np.array(theta)
+        single.append(ab[1])
+    theta, single = np.array(theta), np.array(single)
     k = len(theta)
     assert se == pytest.approx(np.sqrt((k - 1) / k * np.sum((theta - theta.mean()) ** 2)), rel=1e-9)
+    a_r, se_r = judge.agreement(rival)
+    assert a_r == pytest.approx(a[1], abs=1e-12)
+    assert se_r == pytest.approx(np.sqrt((k - 1) / k * np.sum((single - single.mean()) ** 2)), rel=1e-9)
     # B made by the turn itself: the right rotation leads by far more than its own error
     assert m > 0.5 and m > 5 * se, (m, se)
     # nothing of B seen in A under one of them: nothing measured
     none = np.zeros(img.shape[:2], np.uint8)
-    assert np.isnan(RotationAgreement(img, img_b, cam, cam, masks=(none, mask_b)).margin(R, rival)).all()
+    blind = RotationAgreement(img, img_b, cam, cam, masks=(none, mask_b))
+    assert np.isnan(blind.margin(R, rival)).all() and np.isnan(blind.agreement(R)).all()

@@ -297,7 +297,7 @@ def test_no_families_are_looked_for_under_an_ambiguous_answer(held_ambiguous):
     assert not any("both views at once" in n for n in res.pose.notes)
 
 
-def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street, held_ambiguous):
+def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street, held_ambiguous, monkeypatch):
     """An answer the geometry left ambiguous by its margin alone (here forced: a matching bar of
     10000) is decided by the images' look when image B agrees with A turned by the first answer
     better than by every other answer (the two cues agree: any margin), or by another answer better
@@ -305,7 +305,8 @@ def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street, 
     first case. Any other reason for the ambiguity is left to the geometry."""
     import copy
 
-    from catadioptric.twoview import LOOK_BAR, LOOK_SAME_DEG, settle_by_look
+    import catadioptric.twoview as twoview
+    from catadioptric.twoview import LOOK_BAR, LOOK_SAME_DEG, LOOK_SIGMAS, settle_by_look
 
     _, a, b, R_gt, _ = street
     res = copy.deepcopy(held_ambiguous)
@@ -329,6 +330,16 @@ def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street, 
     assert np.isclose(look["margin"], agree[0] - agree[far].max()) and look["bar"] == LOOK_BAR
     assert look["margin"] > 0 and decided == look["decided"] == (not res.pose.ambiguous)
     assert decided, res.pose.notes  # its nearby check passes: a right answer
+    # and image B agrees with A turned by it by LOOK_SIGMAS standard errors of that agreement
+    from catadioptric.photometric import RotationAgreement
+
+    a_seen, se_seen = RotationAgreement(a["beauty"], b["beauty"], a["camera"], a["camera"]).agreement(res.pose.R)
+    assert np.isclose(look["agreement_se"], se_seen) and a_seen >= LOOK_SIGMAS * se_seen
+    blind = copy.deepcopy(other)
+    monkeypatch.setattr(twoview, "LOOK_SIGMAS", 1.01 * a_seen / se_seen)
+    assert not settle_by_look(blind, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]))
+    assert blind.pose.ambiguous and "standard errors of that agreement" in blind.pose.notes[-1]
+    monkeypatch.undo()
     # with a bar below its margin the look decides it, and the answer stays the first
     assert settle_by_look(low, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]), bar=0.5 * look["margin"])
     assert not low.pose.ambiguous and np.array_equal(low.pose.R, R0)
@@ -442,6 +453,7 @@ def test_the_look_refines_the_rival_it_ranks_first_and_scores_it_again(monkeypat
     monkeypatch.setattr(RotationAgreement, "__init__", lambda self, *args, **kwargs: None)
     monkeypatch.setattr(RotationAgreement, "__call__", agreement)
     monkeypatch.setattr(RotationAgreement, "best_near", lambda self, R, **kw: (R, 0.9))
+    monkeypatch.setattr(RotationAgreement, "agreement", lambda self, R: (0.9, 0.05))
     for lose in (False, True):
         calls.clear()
         res = ImagePairPose(copy.deepcopy(pose), (None, None), {})
