@@ -88,7 +88,8 @@ def _look(res, R_gt) -> dict:
     the answer it takes (the geometry's first of those within ``LOOK_SAME_DEG`` of the one that
     agrees best), its rotation error, the best agreement's margin over every other answer,
     whether the geometry keeps it within its bar of the best, and how much better a rotation near it
-    agrees (None where that was not looked for); and whether the look, asked of an answer the
+    agrees (None where that was not looked for), the agreement of the answer it takes and its
+    standard error (None where not measured); and whether the look, asked of an answer the
     geometry decided, contradicted it and left it ambiguous (:func:`catadioptric.twoview.check_by_look`;
     None where it was not asked), with the margin by which the best other answer beyond
     ``LOOK_SAME_DEG`` agrees better than the answer (negative: worse) and that margin's standard error
@@ -98,18 +99,21 @@ def _look(res, R_gt) -> dict:
     lk = (res.evidence or {}).get("look")
     check = (res.evidence or {}).get("look_check")
     out = {"look_decided": None, "look_margin": None, "look_best_error_deg": None, "look_best_within_bar": None,
-           "look_nearby_gain": None, "look_contradicts": None, "look_check_margin": None, "look_check_se": None}
+           "look_nearby_gain": None, "look_agreement": None, "look_agreement_se": None, "look_contradicts": None,
+           "look_check_margin": None, "look_check_se": None}
     if check is not None:
         out |= {"look_contradicts": bool(check["contradicts"]), "look_check_margin": _number(check["margin"]),
                 "look_check_se": _number(check["margin_se"])}
     if not lk:
         return out
-    out |= {"look_decided": bool(lk["decided"]), "look_margin": float(lk["margin"])}
+    out |= {"look_decided": bool(lk["decided"]), "look_margin": float(lk["margin"]),
+            "look_agreement_se": _number(lk.get("agreement_se"))}
     if lk["best"] is not None:
         first = res.candidates[0] if lk["decided"] else None  # a decided answer is the look's best, first
         best = first if first is not None else res.candidates[lk["best"]]
         cost0 = min(c.cost for c in res.candidates)
-        out |= {"look_best_error_deg": rotation_angle_deg(best.R @ R_gt.T),
+        out |= {"look_agreement": _number(lk["agreement"][lk["candidates"].index(lk["best"])]),
+                "look_best_error_deg": rotation_angle_deg(best.R @ R_gt.T),
                 "look_best_within_bar": bool(best.cost - cost0 < res.evidence["bar"])}
         if lk["nearby"] is not None:
             out["look_nearby_gain"] = float(lk["nearby"]["agreement"] - lk["agreement"][lk["candidates"].index(lk["best"])])
