@@ -16,7 +16,7 @@ import numpy as np
 from ._checks import CatadioptricError, as_scalar
 
 __all__ = ["ImagePairPose", "relative_pose_from_images", "pose_from_detections", "pair_overlay", "image_pair_summary",
-           "image_pair_markdown", "register", "COVARIANCE_SCALE", "LOOK_BAR", "LOOK_SIGMAS", "settle_by_look", "check_by_look", "ranked_agreement"]
+           "image_pair_markdown", "register", "COVARIANCE_SCALE"]
 
 
 @dataclass
@@ -35,6 +35,11 @@ class ImagePairPose:
     def to_dict(self) -> dict:
         """JSON-ready: the fields of ``pose.json`` (:func:`image_pair_summary`)."""
         return image_pair_summary(self)
+
+    def hold(self, pose) -> None:
+        """Make ``pose`` (a :class:`catadioptric.pose.RelativePose` of these detections) the answer,
+        ``family_map`` from its first candidate (another cue choosing one of the rivals)."""
+        self.pose, self.family_map = pose, _family_map(pose)
 
 
 def _family_map(pose) -> dict:
@@ -69,17 +74,18 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
     :data:`COVARIANCE_SCALE`, measured on rendered pairs; 1: the fit's own). ``look``: an answer that
     only its margin left ambiguous is decided by the images' look where it clearly prefers one of
     the answers the geometry keeps, and an answer the geometry decided is left ambiguous where the
-    look plainly prefers another (:func:`settle_by_look`, :func:`check_by_look`). ``calibration_rms_px``: the cameras'
+    look plainly prefers another (:func:`catadioptric.look.settle_by_look`, :func:`catadioptric.look.check_by_look`). ``calibration_rms_px``: the cameras'
     calibration rms in pixels (see :func:`catadioptric.pose.relative_pose`; 0 for a rendered rig).
     For the lines of one planar target that a half-turn about its axes maps onto itself (a
     chessboard, masked), call it with ``look=False``, then
     :func:`catadioptric.pose.twins.flag_twins` on ``res.pose`` (an answer whose twin under such a
-    turn is listed is ambiguous), then :func:`settle_by_look` (which leaves such an answer alone), as
+    turn is listed is ambiguous), then :func:`catadioptric.look.settle_by_look` (which leaves such an answer alone), as
     ``relative-pose --symmetric-target`` does. Raises :class:`CatadioptricError` naming the
     cause when a view has fewer than two families.
     """
     from .detect import detect_lines
     from .detect.image import check_image_size, to_channels
+    from .look import settle_by_look
 
     cam_b = cam_a if cam_b is None else cam_b
     if not (isinstance(min_pixels, (int, np.integer)) and min_pixels >= 2):
@@ -236,319 +242,6 @@ COVARIANCE_SCALE = 3.0
 #: claimed deviation on the benchmark's answered pairs and on the held-out ones (2.4 and 2.5;
 #: docs/relative_pose.md, "Families only both images show")
 _JOINT_AGREE_SIGMA = 5.0 * 2.5
-
-
-#: the agreement of the images (:func:`catadioptric.photometric.rotation_agreement`, a correlation) by
-#: which an answer other than the geometry's first must beat every other answer its directions allow,
-#: for :func:`settle_by_look` to decide an answer left ambiguous (the geometry's first needs only to lead)
-LOOK_BAR = 0.1
-
-#: answers whose rotations lie closer than this (degrees) are one answer to the images' look
-#: (:func:`settle_by_look`): it compares the views as if the scene were at infinity, and the
-#: translation it leaves out moves the rotation where they agree best 3-7 degrees from the true one on
-#: the rendered street pairs (:meth:`catadioptric.photometric.RotationAgreement.best_near`), by a
-#: few hundredths of agreement; among such answers (their agreements within the bar) the geometry decides
-LOOK_SAME_DEG = 10.0
-
-#: standard errors (the jackknife over blocks of image B,
-#: :meth:`catadioptric.photometric.RotationAgreement.margin` and ``.agreement``): by this many the
-#: images' look must prefer another answer to the one the geometry decided for that answer to be left
-#: ambiguous (:func:`check_by_look`; and by the look's bar), and image B must agree with image A
-#: turned by an answer for the look to decide it (:func:`settle_by_look`: a look that does not see
-#: the scene under the answer, as at wide baselines, confirms nothing)
-LOOK_SIGMAS = 2.0
-
-
-def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, None), *, bar: float = LOOK_BAR) -> bool:
-    """Decide an answer that the geometry left ambiguous by its margin alone (no other reason:
-    ``pose.evidence["ambiguous_by"]``) by how the images look under each of its candidates; an
-    answer the geometry decided is checked by the look instead (:func:`check_by_look`).
-
-    Each different answer among ``res.pose.candidates`` (rotations more than
-    :data:`~catadioptric.pose.labelled.SAME_ANSWER_DEG` apart, the cheapest of each) is scored by
-    the agreement of image B with image A turned by its rotation
-    (:func:`catadioptric.photometric.rotation_agreement`); an answer under which too little of B is
-    seen in A to compare contradicts the lines it matched in both views and ranks last (agreement
-    taken as -1), unless a mask is given (the mask may be what hides the view: then no answer is
-    chosen). The answers within :data:`LOOK_SAME_DEG` of the one that agrees best, their agreement
-    within ``bar`` of its, are one answer to the look, and the geometry's first of them is taken
-    when the geometry tells it from the others (:func:`look_choice`). It is the answer when
-    the look ranks every other answer below it by at least ``bar`` (by any margin when it is the
-    geometry's own first answer: the two cues then agree, and only an answer that overturns the
-    lines' ranking needs the bar), the geometry keeps it (its cost within the matching's
-    bar of the best: one of the answers the geometry could not tell apart, refined as the best was),
-    no rotation near it agrees better by ``bar``
-    (:meth:`~catadioptric.photometric.RotationAgreement.best_near`: the answer is where the images
-    agree, not only the best of the answers), and image B agrees with image A turned by it by
-    :data:`LOOK_SIGMAS` standard errors of that agreement
-    (:meth:`~catadioptric.photometric.RotationAgreement.agreement`: the look sees the scene under it). ``res`` then holds it, decisive, its candidates first;
-    its ``margin`` stays the geometry's (negative when the geometry ranked another first). What was measured
-    goes to ``pose.evidence["look"]`` (each answer's candidate index and agreement, the one it ranks
-    first, the answer taken, its margin, the best agreement near it and how far, the standard error
-    of its own agreement, the bar, whether it decided) and the notes. Returns whether it decided."""
-    from .photometric import RotationAgreement
-    from .pose import rotation_angle_deg
-
-    p = res.pose
-    ev = p.evidence
-    if ev is not None and not p.ambiguous:
-        check_by_look(res, images, cams, masks, bar=bar)
-        return False
-    why = ev.get("ambiguous_by") if ev else None
-    if not p.ambiguous or not why or not set(why) <= {"margin", "lines_in_order"}:
-        return False
-    answers = _answers(p)
-    if len(answers) < 2 or answers[0] != 0:
-        return False
-    judge = RotationAgreement(images[0], images[1], cams[0], cams[1], masks=masks)
-    agree = judge(np.stack([p.candidates[k].R for k in answers]))
-    unseen = ~np.isfinite(agree)
-    look = {"candidates": answers, "agreement": [float(a) for a in agree], "best": None, "ranked_first": None,
-            "margin": float("nan"), "nearby": None, "agreement_se": float("nan"), "bar": float(bar),
-            "same_deg": LOOK_SAME_DEG, "decided": False}
-    ev["look"] = look
-    masked = any(m is not None for m in masks)
-
-    def choose():
-        score = ranked_agreement(agree, masked=masked)
-        if score is None:
-            return None
-        ch = look_choice(score, [p.candidates[k].R for k in answers], [p.candidates[k].cost for k in answers], bar,
-                         ev["bar"])
-        look.update(best=answers[ch.taken], ranked_first=answers[ch.first], margin=ch.margin)
-        return ch
-
-    ch = choose()
-    if ch is None:
-        p.notes = [*p.notes, "the images' look did not decide it: some answers' rotations leave too little of B "
-                             "seen in A to compare" + (" (under the masks)" if masked else "")]
-        return False
-    k = answers[ch.taken]
-    kept = p.candidates[k].cost - p.candidates[0].cost < ev["bar"]
-    refined = k == 0 or k in p.rivals
-    if kept and not refined and ch.decides and p.refine_rival(k):
-        # a rival beyond those refined with the answer, refined now that the look takes it: its
-        # refined rotation is scored again, and the look must take it again
-        refined = True
-        agree[ch.taken] = judge(p.candidates[k].R[None])[0]
-        look["agreement"][ch.taken] = float(agree[ch.taken])
-        look["refined_now"] = k
-        ch = choose()
-        if ch is None:
-            p.notes = [*p.notes, f"the images' look did not decide it: its best answer (candidate {k}), refined, "
-                                 "leaves too little of B seen in A to compare"]
-            return False
-        if answers[ch.taken] != k:
-            p.notes = [*p.notes, f"the images' look did not decide it: its best answer (candidate {k}), refined, "
-                                 f"no longer leads (candidate {answers[ch.taken]} does)"]
-            return False
-    gain = apart = float("nan")
-    if ch.decides and kept and refined:
-        R_near, a_near = judge.best_near(p.candidates[k].R)
-        gain, apart = a_near - float(agree[ch.taken]), rotation_angle_deg(R_near @ p.candidates[k].R.T)
-        look["nearby"] = {"agreement": a_near, "apart_deg": apart}
-    seen, seen_se = float("nan"), float("nan")
-    if ch.decides and kept and refined and gain < bar:
-        seen, seen_se = judge.agreement(p.candidates[k].R)
-        look["agreement_se"] = seen_se
-    if not ch.decides or not kept or not refined or not gain < bar or not seen >= LOOK_SIGMAS * seen_se:
-        lost = (_short_note(ch, answers, bar) if not ch.decides else
-                f"its best answer (candidate {k}) is beyond the matching's bar" if not kept else
-                f"its best answer (candidate {k}) was not refined" if not refined else
-                f"a rotation {apart:.1f} deg from its best answer agrees better by {gain:.3f} (bar {bar:g}): that "
-                f"answer is not where the images agree" if not gain < bar else
-                f"image B agrees with image A turned by its best answer (candidate {k}) by {seen:.3f}, "
-                f"{seen / seen_se:.1f} standard errors of that agreement (needed: {LOOK_SIGMAS:g}): the look does "
-                f"not see the scene under it")
-        p.notes = [*p.notes, f"the images' look did not decide it: {lost}"]
-        return False
-    look["decided"] = True
-    note = _decided_note(ch, answers, ranked_agreement(agree, masked=masked), unseen, bar)
-    if k != 0:
-        p = _take_rival(res, k)
-    p.ambiguous = False
-    p.notes = [note, *p.notes]
-    return True
-
-
-def _answers(p) -> list:
-    """The different answers among ``p.candidates`` (indices): rotations more than
-    :data:`~catadioptric.pose.labelled.SAME_ANSWER_DEG` apart, the cheapest of each, finite costs only."""
-    from .pose import rotation_angle_deg
-    from .pose.labelled import SAME_ANSWER_DEG
-
-    answers = []
-    for k, c in enumerate(p.candidates):
-        if np.isfinite(c.cost) and all(rotation_angle_deg(c.R @ p.candidates[j].R.T) > SAME_ANSWER_DEG for j in answers):
-            answers.append(k)
-    return answers
-
-
-def check_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, None), *, bar: float = LOOK_BAR) -> bool:
-    """Ask the images' look of an answer the geometry decided: when image B agrees with image A
-    turned by another answer (one more than :data:`LOOK_SAME_DEG` from it) better than by the answer
-    itself, by the bar and by :data:`LOOK_SIGMAS` standard errors of that margin
-    (:meth:`~catadioptric.photometric.RotationAgreement.margin`), the two cues contradict each other
-    and the answer is left ambiguous (``pose.evidence["ambiguous_by"]`` gains ``"look"``; a note
-    says by how much). The lines' matching was measured at baselines of 2-8 m (its bar, docs/relative_pose.md);
-    at wider ones it has decided half-turns that the images plainly deny. What was measured goes to
-    ``pose.evidence["look_check"]`` (the answers' candidate indices and agreements, the one that
-    agrees best beyond :data:`LOOK_SAME_DEG`, its margin over the answer and that margin's standard
-    error, the bar, whether it contradicts). Returns whether the answer was left ambiguous; answers
-    already ambiguous, of the label path, or with no other answer are left alone."""
-    from .photometric import RotationAgreement
-    from .pose import rotation_angle_deg
-
-    p = res.pose
-    ev = p.evidence
-    if ev is None or p.ambiguous:
-        return False
-    answers = _answers(p)
-    if len(answers) < 2 or answers[0] != 0:
-        return False
-    R0 = p.candidates[0].R
-    judge = RotationAgreement(images[0], images[1], cams[0], cams[1], masks=masks)
-    agree = judge(np.stack([p.candidates[k].R for k in answers]))
-    far = [i for i, k in enumerate(answers) if rotation_angle_deg(p.candidates[k].R @ R0.T) > LOOK_SAME_DEG
-           and np.isfinite(agree[i])]
-    check = {"candidates": answers, "agreement": [float(a) for a in agree], "rival": None, "margin": float("nan"),
-             "margin_se": float("nan"), "bar": float(bar), "sigmas": LOOK_SIGMAS, "contradicts": False}
-    ev["look_check"] = check
-    if not far or not np.isfinite(agree[0]):
-        return False
-    j = max(far, key=lambda i: agree[i])
-    if not agree[j] > agree[0]:
-        check.update(rival=answers[j], margin=float(agree[j] - agree[0]))
-        return False
-    m, se = judge.margin(p.candidates[answers[j]].R, R0)
-    need = max(bar, LOOK_SIGMAS * se) if np.isfinite(se) else float("nan")
-    check.update(rival=answers[j], margin=m, margin_se=se)
-    if not (np.isfinite(need) and m >= need):
-        return False
-    check["contradicts"] = True
-    p.ambiguous = True
-    ev["ambiguous_by"] = [*ev.get("ambiguous_by", []), "look"]
-    p.notes = [f"ambiguous: the images' look contradicts the lines: image B agrees with image A turned by candidate "
-               f"{answers[j]} ({rotation_angle_deg(p.candidates[answers[j]].R @ R0.T):.0f} deg from the answer; "
-               f"correlation {agree[j]:.3f}) better than by the answer ({agree[0]:.3f}) by {m:.3f}, against a bar of "
-               f"{need:.3f} (the look's bar {bar:g}, or {LOOK_SIGMAS:g} standard errors of that margin over blocks "
-               f"of image B, {se:.3f})", *p.notes]
-    return True
-
-
-@dataclass
-class LookChoice:
-    """What the images' look makes of the answers (:func:`look_choice`; indices into the answers)."""
-
-    #: the answer that agrees best
-    first: int
-    #: the answers the look does not tell from it (itself included): within :data:`LOOK_SAME_DEG`
-    #: of it, their agreement within the bar of its
-    same: list
-    #: the geometry's first of them: the answer the look would take
-    taken: int
-    #: the first one's agreement over the best of the other answers (NaN: there is none)
-    margin: float
-    #: None when the look ranks every other answer below it enough; else ``(j, margin, needed)`` for the
-    #: other answer ``j`` it does not (``j`` None: there is no other answer)
-    short: tuple | None
-    #: the answers among ``same`` within the matching's bar of the one taken: the geometry does not
-    #: tell them from it either
-    tied: list
-
-    @property
-    def decides(self) -> bool:
-        """Whether the look takes ``taken`` (the geometry's bar and the rotations near it aside)."""
-        return self.short is None and not self.tied
-
-
-def look_choice(score, rotations, costs, bar: float, matching_bar: float) -> LookChoice:
-    """The answer the images' look takes among answers ranked by the geometry (in that order) with
-    agreements ``score`` (as :func:`ranked_agreement` gives them), ``rotations`` and the matching's
-    ``costs``: the one that agrees best and those within :data:`LOOK_SAME_DEG` of it whose agreement
-    is within ``bar`` of its are one answer to the look, and the geometry's first of them is taken
-    if the geometry tells it from the others (each costs ``matching_bar`` more); every other answer
-    must agree less by ``bar``, by any margin when the one taken is the geometry's first
-    (:func:`settle_by_look`)."""
-    from .pose import rotation_angle_deg
-
-    score = np.asarray(score, dtype=float)
-    first = int(np.argmax(score))
-    same = [j for j, R in enumerate(rotations)
-            if rotation_angle_deg(R @ rotations[first].T) < LOOK_SAME_DEG and score[first] - score[j] < bar]
-    taken = min(same)
-    tied = [j for j in same if j != taken and costs[j] - costs[taken] < matching_bar]
-    others = [j for j in range(len(score)) if j not in same]
-    if not others:
-        return LookChoice(first, same, taken, float("nan"), (None, float("nan"), 0.0), tied)
-    j = max(others, key=lambda i: score[i])
-    margin, need = float(score[first] - score[j]), bar if taken > 0 else 0.0
-    short = None if margin > 0.0 and margin >= need else (j, margin, need)
-    return LookChoice(first, same, taken, margin, short, tied)
-
-
-def _short_note(ch: LookChoice, answers, bar: float) -> str:
-    """Why the look does not take an answer (:attr:`LookChoice.short`, :attr:`LookChoice.tied`)."""
-    if ch.short is None:
-        return (f"it does not tell candidates {answers[ch.taken]} and {answers[ch.tied[0]]} apart (at most "
-                f"{LOOK_SAME_DEG:g} deg apart, agreements within {bar:g}), nor does the geometry (costs within "
-                f"the matching's bar)")
-    j, m, need = ch.short
-    if j is None:
-        return (f"its answers all lie within {LOOK_SAME_DEG:g} deg of its best, their agreements within {bar:g}: "
-                f"it does not tell them apart")
-    if need > 0.0:
-        return f"margin {m:.3f} over candidate {answers[j]} against a bar of {need:g}"
-    return f"candidate {answers[j]} agrees as well as its best (margin {m:.3f})"
-
-
-def _decided_note(ch: LookChoice, answers, score, unseen, bar: float) -> str:
-    """The note of an answer the look decided (:func:`settle_by_look`; ``score`` as ranked)."""
-    k = answers[ch.taken]
-    text = (f"decided by the images' look: image B agrees with image A turned by "
-            f"{'the best answer' if k == 0 else f'candidate {k} (within the matching bar of the best)'} "
-            f"(correlation {score[ch.first]:.3f}) better than by any of the "
-            f"{len(answers) - len(ch.same)} other answers by {ch.margin:.3f}")
-    if ch.first != ch.taken:
-        text += (f" (it agrees best as candidate {answers[ch.first]}, within {LOOK_SAME_DEG:g} deg of it: the look "
-                 f"does not tell them apart, and the geometry ranks candidate {k} first)")
-    if ch.taken > 0 or ch.margin >= bar:
-        text += f", against a bar of {bar:g}"
-    else:
-        text += f", confirming the lines' own first answer (another answer would need {bar:g})"
-    if unseen.any():
-        text += f" ({int(unseen.sum())} of them turn B's view out of A's)"
-    return text
-
-
-def ranked_agreement(agreement, *, masked: bool):
-    """The answers' agreements (:func:`settle_by_look`) as they are ranked: an answer under which too
-    little of B is seen in A to compare (NaN) says the two views share nearly nothing, against the
-    lines it matched in both, and ranks last (-1) when no mask is given; with a mask, the mask may be
-    what hides the view, and such an answer leaves nothing to rank (None), as when no answer is
-    measured at all."""
-    a = np.asarray(agreement, dtype=float)
-    unseen = ~np.isfinite(a)
-    if unseen.all() or (unseen.any() and masked):
-        return None
-    return np.where(unseen, -1.0, a)
-
-
-def _take_rival(res: ImagePairPose, k: int):
-    """``res`` made to hold its pose's refined rival ``k`` (``pose.rivals[k]``) as the answer: its
-    candidate first, the geometry's margin of that answer over the next different one, the first
-    answer's evidence and notes before the rival's own. Returns the new pose."""
-    from .pose import rotation_angle_deg
-    from .pose.labelled import SAME_ANSWER_DEG
-
-    p, new = res.pose, res.pose.rivals[k]
-    costs = [c.cost for j, c in enumerate(p.candidates) if j != k
-             and rotation_angle_deg(c.R @ p.candidates[k].R.T) > SAME_ANSWER_DEG]
-    new.candidates = [p.candidates[k], *[c for j, c in enumerate(p.candidates) if j != k]]
-    new.margin = float(min(costs) - p.candidates[k].cost)
-    new.evidence, new.notes = p.evidence, [*p.notes, *new.notes]
-    res.pose, res.family_map = new, _family_map(new)
-    return new
 
 
 def _finite_std(pose) -> float:
@@ -737,6 +430,7 @@ def _run(args) -> int:
         res.pose.notes = [*res.pose.notes, f"the calibration's rms, {rms:g} px, is the rms kept in "
                                            f"{' and '.join(rms_from)} (--calibration-rms overrides it)"]
     if symmetric:  # the target's twins first: the look then leaves an answer they make ambiguous alone
+        from .look import settle_by_look
         from .pose.twins import flag_twins
 
         t0 = time.perf_counter()

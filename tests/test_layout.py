@@ -186,6 +186,7 @@ LAYERS = [
     ["dataset"],
     ["detect"],  # one image
     ["export", "photometric", "pose"],  # photometric: two images compared under a rotation
+    ["look"],  # the pose's answers held against the images (photometric)
     ["twoview"],  # two images: detect, then pose
     ["validate"],
     ["jobs", "cli_centrality", "cli_chessboard"],

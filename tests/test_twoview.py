@@ -35,7 +35,8 @@ def with_prior_alone(street):
 
 
 def _from_detections(street, alone, **options):
-    from catadioptric.twoview import pose_from_detections, settle_by_look
+    from catadioptric.look import settle_by_look
+    from catadioptric.twoview import pose_from_detections
 
     _, a, b, _, _ = street
     res = pose_from_detections(*alone.detections, **options)
@@ -305,8 +306,8 @@ def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street, 
     first case. Any other reason for the ambiguity is left to the geometry."""
     import copy
 
-    import catadioptric.twoview as twoview
-    from catadioptric.twoview import LOOK_BAR, LOOK_SAME_DEG, LOOK_SIGMAS, settle_by_look
+    import catadioptric.look as look_module
+    from catadioptric.look import LOOK_BAR, LOOK_SAME_DEG, LOOK_SIGMAS, settle_by_look
 
     _, a, b, R_gt, _ = street
     res = copy.deepcopy(held_ambiguous)
@@ -336,7 +337,7 @@ def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street, 
     a_seen, se_seen = RotationAgreement(a["beauty"], b["beauty"], a["camera"], a["camera"]).agreement(res.pose.R)
     assert np.isclose(look["agreement_se"], se_seen) and a_seen >= LOOK_SIGMAS * se_seen
     blind = copy.deepcopy(other)
-    monkeypatch.setattr(twoview, "LOOK_SIGMAS", 1.01 * a_seen / se_seen)
+    monkeypatch.setattr(look_module, "LOOK_SIGMAS", 1.01 * a_seen / se_seen)
     assert not settle_by_look(blind, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]))
     assert blind.pose.ambiguous and "standard errors of that agreement" in blind.pose.notes[-1]
     monkeypatch.undo()
@@ -437,7 +438,8 @@ def test_the_look_refines_the_rival_it_ranks_first_and_scores_it_again(monkeypat
     import copy
 
     from catadioptric.photometric import RotationAgreement
-    from catadioptric.twoview import ImagePairPose, settle_by_look
+    from catadioptric.look import settle_by_look
+    from catadioptric.twoview import ImagePairPose
 
     pose = _room_pair()
     assert pose.evidence["ambiguous_by"] == ["margin"]
@@ -591,7 +593,7 @@ def test_an_answer_that_turns_b_out_of_view_ranks_last_without_masks():
     """An answer under which too little of B is seen in A to compare (NaN) contradicts the lines it
     matched in both views: it ranks last without masks; with a mask (which may be what hides the
     view) nothing is ranked, nor when no answer is measured."""
-    from catadioptric.twoview import ranked_agreement
+    from catadioptric.look import ranked_agreement
 
     a = [0.42, np.nan, 0.61]
     np.testing.assert_array_equal(ranked_agreement(a, masked=False), [0.42, -1.0, 0.61])
@@ -625,7 +627,7 @@ def test_the_look_takes_the_geometrys_first_of_the_answers_it_cannot_tell_apart(
     less by the bar, by any margin when the one taken is the geometry's first."""
     from scipy.spatial.transform import Rotation
 
-    from catadioptric.twoview import LOOK_SAME_DEG, look_choice
+    from catadioptric.look import LOOK_SAME_DEG, look_choice
 
     def turn(deg):
         return Rotation.from_euler("z", deg, degrees=True).as_matrix()
@@ -668,7 +670,7 @@ def test_the_images_look_leaves_ambiguous_an_answer_of_the_geometry_it_contradic
     import copy
 
     from catadioptric.photometric import RotationAgreement
-    from catadioptric.twoview import LOOK_BAR, LOOK_SAME_DEG, LOOK_SIGMAS, check_by_look
+    from catadioptric.look import LOOK_BAR, LOOK_SAME_DEG, LOOK_SIGMAS, check_by_look
 
     _, a, b, R_gt, _ = street
     # the right answer, decided by the geometry: checked, not contradicted
@@ -704,9 +706,9 @@ def test_the_images_look_leaves_ambiguous_an_answer_of_the_geometry_it_contradic
     assert not high.pose.ambiguous and high.pose.evidence["ambiguous_by"] == []
     assert high.pose.evidence["look_check"]["contradicts"] is False
     # and with the margin below LOOK_SIGMAS of its standard errors
-    import catadioptric.twoview as twoview
+    import catadioptric.look as look_module
 
-    monkeypatch.setattr(twoview, "LOOK_SIGMAS", 1.01 * m / se)
+    monkeypatch.setattr(look_module, "LOOK_SIGMAS", 1.01 * m / se)
     assert not check_by_look(sigmas, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]))
     assert not sigmas.pose.ambiguous and sigmas.pose.evidence["look_check"]["sigmas"] == 1.01 * m / se
     # an ambiguous answer is not checked

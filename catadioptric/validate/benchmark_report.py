@@ -483,9 +483,9 @@ def _geometry_alone(ok: list) -> dict:
 
 
 def _by_look(ok: list) -> dict:
-    """The runs the images' look decided (:func:`catadioptric.twoview.settle_by_look`), and of those
+    """The runs the images' look decided (:func:`catadioptric.look.settle_by_look`), and of those
     more than 10 degrees off; the runs the geometry decided and the look left ambiguous
-    (:func:`catadioptric.twoview.check_by_look`), and of those how many the geometry had answered more
+    (:func:`catadioptric.look.check_by_look`), and of those how many the geometry had answered more
     than 10 degrees off; None when the runs carry no record of it (older results)."""
     if not ok or any("look_decided" not in x for x in ok):
         return {"answered_by_look": None, "over_10deg_by_look": None, "ambiguous_by_look": None,

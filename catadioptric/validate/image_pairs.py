@@ -84,13 +84,13 @@ def _geometry_alone(res, R_gt) -> dict:
 
 def _look(res, R_gt) -> dict:
     """What the images' look said of an answer the geometry left ambiguous by its margin
-    (:func:`catadioptric.twoview.settle_by_look`; None where it was not asked): whether it decided;
+    (:func:`catadioptric.look.settle_by_look`; None where it was not asked): whether it decided;
     the answer it takes (the geometry's first of those within ``LOOK_SAME_DEG`` of the one that
     agrees best), its rotation error, the best agreement's margin over every other answer,
     whether the geometry keeps it within its bar of the best, and how much better a rotation near it
     agrees (None where that was not looked for), the agreement of the answer it takes and its
     standard error (None where not measured); and whether the look, asked of an answer the
-    geometry decided, contradicted it and left it ambiguous (:func:`catadioptric.twoview.check_by_look`;
+    geometry decided, contradicted it and left it ambiguous (:func:`catadioptric.look.check_by_look`;
     None where it was not asked), with the margin by which the best other answer beyond
     ``LOOK_SAME_DEG`` agrees better than the answer (negative: worse) and that margin's standard error
     (None where not measured)."""
@@ -178,7 +178,7 @@ def evaluate_image_pair(dataset, names, *, priors=(None, 60.0), min_pixels: int 
     :class:`catadioptric.Dataset`) for each motion prior. ``overlay``: a PNG path for the pair's
     overlay (the answer of the last prior). ``joint``: see
     :func:`catadioptric.twoview.pose_from_detections`; ``look``: an answer left ambiguous by its
-    margin decided by the images' look where it can be (:func:`catadioptric.twoview.settle_by_look`);
+    margin decided by the images' look where it can be (:func:`catadioptric.look.settle_by_look`);
     ``threads``: as :func:`catadioptric.pose.relative_pose`'s. Returns a JSON-ready dict."""
     from threadpoolctl import threadpool_limits
 
@@ -191,7 +191,8 @@ def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, steps
     from ..detect import detect_lines, evaluate_view
     from ..pose import rotation_angle_deg
     from ..pose.families import rays_centre
-    from ..twoview import pair_overlay, pose_from_detections, settle_by_look
+    from ..look import settle_by_look
+    from ..twoview import pair_overlay, pose_from_detections
 
     ds = dataset if isinstance(dataset, Dataset) else Dataset(dataset)
     if len(names) != 2 or any(n not in ds.names for n in names):

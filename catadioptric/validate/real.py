@@ -173,7 +173,8 @@ def run_real(data: str, out: str, *, max_rotation_deg: float | None = None, prog
     from ..detect.report import write_png
     from ..formats import calibration_rms, load_camera
     from ..pose.twins import flag_twins
-    from ..twoview import pair_overlay, pose_from_detections, settle_by_look
+    from ..look import settle_by_look
+    from ..twoview import pair_overlay, pose_from_detections
 
     def say(msg):
         if progress:
