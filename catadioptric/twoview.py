@@ -311,6 +311,16 @@ def _candidate(c, k: int, evidence: dict | None) -> dict:
     return out
 
 
+def _check_text(check: dict) -> str:
+    """The verdict's words for the look's check of a decided answer (``evidence.look_check``)."""
+    m, se = check["margin"], check["margin_se"]
+    text = "; the images' look contradicts it" if check["contradicts"] else "; checked by the images' look"
+    if m <= 0:
+        return text + f" (every other answer agrees less, by {-m:.3f} or more)"
+    errors = f", {m / se:.1f} standard errors" if np.isfinite(se) and se > 0 else ""
+    return text + f" (another answer agrees better by {m:.3f}{errors})"
+
+
 def image_pair_markdown(summary: dict, command: str) -> str:
     """A short Markdown report of :func:`image_pair_summary`'s dict."""
     from .pose import rotation_angle_deg
@@ -320,11 +330,14 @@ def image_pair_markdown(summary: dict, command: str) -> str:
 
     R = np.asarray(summary["R"], float)
     lines = ["# Relative pose from two images", "", f"Command: `{command}`", ""]
-    verdict = ("**ambiguous**: the best answer does not beat the next different one by the decisive margin; "
+    ev = summary.get("evidence")
+    contradicted = bool(ev and (ev.get("look_check") or {}).get("contradicts"))
+    verdict = ("**ambiguous**: the images' look contradicts the lines' answer; every candidate is in pose.json"
+               if summary["ambiguous"] and contradicted else
+               "**ambiguous**: the best answer does not beat the next different one by the decisive margin; "
                "every candidate is in pose.json" if summary["ambiguous"] else "decisive")
     margin = summary["margin"]
     margin = f"margin {margin:.1f}" if known(margin) else "no rival answer"
-    ev = summary.get("evidence")
     if ev and known(ev["margin"]):
         margin += f" against a bar of {ev['bar']:g}"
         if ev["appearance"] and ev["margin_geometry_alone"] is not None:
@@ -339,6 +352,13 @@ def image_pair_markdown(summary: dict, command: str) -> str:
             m = look["margin"]
             margin += ("; decided by the images' look" if look["decided"] else "; the images' look did not decide it") \
                 + (f" (agreement margin {m:.3f} against {look['bar']:g})" if known(m) else " (a rival it cannot score)")
+            se = look.get("agreement_se")
+            if look["decided"] and known(se) and se > 0:
+                a = look["agreement"][look["candidates"].index(look["best"])]
+                margin += f"; its agreement {a:.3f}, {a / se:.1f} standard errors"
+        check = ev.get("look_check")
+        if check and known(check["margin"]):
+            margin += _check_text(check)
     std = summary["rotation_std_deg"]
     lines += [f"- verdict: {verdict} ({margin})",
               f"- rotation: {rotation_angle_deg(R):.3f} deg turn"

@@ -87,3 +87,22 @@ def test_the_image_pair_report_says_what_the_look_decided():
     ev["look"] = {"margin": float("nan"), "bar": 0.1, "decided": False}
     md = image_pair_markdown(_summary(margin=12.0, ambiguous=True, evidence=ev), "c")
     assert "the images' look did not decide it (a rival it cannot score)" in md and "nan" not in md
+
+
+def test_the_image_pair_report_says_what_the_look_checked():
+    """An answer the geometry decided, checked by the images' look: the verdict says whether the
+    look contradicted it, and by how many standard errors another answer agrees better."""
+    ev = {"margin": 45.3, "bar": 40.0, "appearance": False, "margin_geometry_alone": None, "turned_in_place": False,
+          "look_check": {"margin": 0.547, "margin_se": 0.161, "bar": 0.1, "sigmas": 2.0, "contradicts": True}}
+    md = image_pair_markdown(_summary(margin=45.3, ambiguous=True, evidence=ev), "c")
+    assert "**ambiguous**: the images' look contradicts the lines' answer" in md
+    assert "the images' look contradicts it (another answer agrees better by 0.547, 3.4 standard errors)" in md
+    ev["look_check"] = {"margin": -0.21, "margin_se": float("nan"), "bar": 0.1, "sigmas": 2.0, "contradicts": False}
+    md = image_pair_markdown(_summary(margin=45.3, evidence=ev), "c")
+    assert "verdict: decisive" in md and "checked by the images' look (every other answer agrees less, by 0.210" in md
+    assert "nan" not in md
+    ev.pop("look_check")
+    ev["look"] = {"margin": 0.183, "bar": 0.1, "decided": True, "candidates": [0, 3], "agreement": [0.6, 0.417],
+                  "best": 0, "agreement_se": 0.1}
+    md = image_pair_markdown(_summary(margin=12.0, evidence=ev), "c")
+    assert "decided by the images' look (agreement margin 0.183 against 0.1); its agreement 0.600, 6.0 standard errors" in md
