@@ -22,8 +22,9 @@ __all__ = ["LOOK_BAR", "LOOK_SAME_DEG", "LOOK_SIGMAS", "settle_by_look", "check_
 
 
 #: the agreement of the images (:func:`catadioptric.photometric.rotation_agreement`, a correlation) by
-#: which an answer other than the geometry's first must beat every other answer its directions allow,
-#: for :func:`settle_by_look` to decide an answer left ambiguous (the geometry's first needs only to lead)
+#: which an answer other than the geometry's first must beat every other answer its directions allow
+#: that the geometry does not rule out (its cost within the matching's bar of the answer's), for
+#: :func:`settle_by_look` to decide an answer left ambiguous (the geometry's first needs only to lead)
 LOOK_BAR = 0.1
 
 #: answers whose rotations lie closer than this (degrees) are one answer to the images' look
@@ -56,9 +57,10 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     chosen). The answers within :data:`LOOK_SAME_DEG` of the one that agrees best, their agreement
     within ``bar`` of its, are one answer to the look, and the geometry's first of them is taken
     when the geometry tells it from the others (:func:`look_choice`). It is the answer when
-    the look ranks every other answer below it by at least ``bar`` (by any margin when it is the
-    geometry's own first answer: the two cues then agree, and only an answer that overturns the
-    lines' ranking needs the bar), the geometry keeps it (its cost within the matching's
+    the look ranks every other answer below it, and each of them is ruled out by one cue: it agrees
+    less by at least ``bar`` (by any margin when the answer is the geometry's own first: the two
+    cues then agree, and only an answer that overturns the lines' ranking needs the bar), or it
+    costs the matching's bar more than the answer (the geometry rules it out); the geometry keeps it (its cost within the matching's
     bar of the best: one of the answers the geometry could not tell apart, refined as the best was),
     no rotation near it agrees better by ``bar``
     (:meth:`~catadioptric.photometric.RotationAgreement.best_near`: the answer is where the images
@@ -251,7 +253,8 @@ def look_choice(score, rotations, costs, bar: float, matching_bar: float) -> Loo
     ``costs``: the one that agrees best and those within :data:`LOOK_SAME_DEG` of it whose agreement
     is within ``bar`` of its are one answer to the look, and the geometry's first of them is taken
     if the geometry tells it from the others (each costs ``matching_bar`` more); every other answer
-    must agree less by ``bar``, by any margin when the one taken is the geometry's first
+    must agree less, and by ``bar`` (by any margin when the one taken is the geometry's first) unless
+    it costs ``matching_bar`` more than the one taken: each other answer ruled out by one cue
     (:func:`settle_by_look`)."""
     from .pose import rotation_angle_deg
 
@@ -266,7 +269,17 @@ def look_choice(score, rotations, costs, bar: float, matching_bar: float) -> Loo
         return LookChoice(first, same, taken, float("nan"), (None, float("nan"), 0.0), tied)
     j = max(others, key=lambda i: score[i])
     margin, need = float(score[first] - score[j]), bar if taken > 0 else 0.0
-    short = None if margin > 0.0 and margin >= need else (j, margin, need)
+    # each other answer must be ruled out by one cue: the look (by the bar) or the geometry (its cost the
+    # matching's bar above the answer taken's)
+    rivals = [i for i in others if costs[i] - costs[taken] < matching_bar]
+    short = None
+    if margin <= 0.0:
+        short = (j, margin, need)
+    elif rivals:
+        r = max(rivals, key=lambda i: score[i])
+        m_r = float(score[first] - score[r])
+        if not (m_r > 0.0 and m_r >= need):
+            short = (r, m_r, need)
     return LookChoice(first, same, taken, margin, short, tied)
 
 

@@ -365,17 +365,23 @@ def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street, 
     assert swap.pose.evidence["look"]["best"] == 1 and not swap.pose.ambiguous
     assert np.array_equal(swap.pose.R, R0) and swap.pose.candidates[0] is right
     assert swap.family_map == res.family_map and np.isclose(swap.pose.margin, res.pose.margin)
-    # overturning the lines' ranking needs the bar over every other answer, those the geometry ranks
-    # behind too (on wide pairs the look has put a wrong answer first by 0.005 over one it ranks
-    # behind, validate/NOTES.md): above the look's margin the answer stays ambiguous
-    p = swap_high.pose
-    p.candidates = [wrong, right, *[c for i, c in enumerate(p.candidates) if i not in (0, j)]]
-    p.rivals = {1: copy.deepcopy(res.pose)}
-    p.R, p.ambiguous = wrong.R, True
-    p.evidence["ambiguous_by"] = ["margin"]
-    assert agree[0] - agree[1] > 2.0 * look["margin"]  # over the answer put ahead it would pass
+    # overturning the lines' ranking needs the bar over each other answer the geometry does not rule
+    # out (its cost within the matching's bar of the answer taken's): here the wrong one alone, the
+    # others costing the bar more. With the bar between the look's margin over those others and its
+    # margin over the wrong one, the right answer is taken; above the latter, the answer stays ambiguous
+    swap_mid = copy.deepcopy(swap_high)
+    for q in (swap_mid.pose, swap_high.pose):
+        q.candidates = [wrong, right, *[c for i, c in enumerate(q.candidates) if i not in (0, j)]]
+        q.rivals = {1: copy.deepcopy(res.pose)}
+        q.R, q.ambiguous = wrong.R, True
+        q.evidence["ambiguous_by"] = ["margin"]
+    gaps_right = [c.cost - right.cost for c in swap_high.pose.candidates[2:]]
+    assert wrong.cost - right.cost < res.pose.evidence["bar"] <= min(gaps_right)
+    assert agree[0] - agree[1] > 2.0 * look["margin"]
+    assert settle_by_look(swap_mid, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]), bar=2.0 * look["margin"])
+    assert not swap_mid.pose.ambiguous and np.array_equal(swap_mid.pose.R, R0)
     assert not settle_by_look(swap_high, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]),
-                              bar=2.0 * look["margin"])
+                              bar=1.01 * (agree[0] - agree[1]))
     assert swap_high.pose.ambiguous and swap_high.pose.evidence["look"]["best"] == 1
     assert "against a bar of" in swap_high.pose.notes[-1]
     # ambiguous for another reason (a rival the geometry could not score): the look is not asked
@@ -623,8 +629,9 @@ def test_the_threads_asked_of_the_image_path_reach_each_refinement(with_prior_al
 def test_the_look_takes_the_geometrys_first_of_the_answers_it_cannot_tell_apart():
     """look_choice: the answers within LOOK_SAME_DEG of the one that agrees best, their agreement
     within the bar of its, are one answer to the look, and the geometry's first of them (the lowest
-    index) is taken when the others cost the matching's bar more; every other answer must agree
-    less by the bar, by any margin when the one taken is the geometry's first."""
+    index) is taken when the others cost the matching's bar more; every other answer must be ruled
+    out by one cue: agree less by the bar (by any margin when the one taken is the geometry's first),
+    or cost the matching's bar more than the one taken; and agree less in any case."""
     from scipy.spatial.transform import Rotation
 
     from catadioptric.look import LOOK_SAME_DEG, look_choice
@@ -638,9 +645,13 @@ def test_the_look_takes_the_geometrys_first_of_the_answers_it_cannot_tell_apart(
     ch = look_choice([0.40, 0.55, 0.60, 0.48], Rs, costs, 0.1, 25.0)
     assert (ch.first, ch.same, ch.taken, ch.tied) == (2, [1, 2], 1, [])
     assert np.isclose(ch.margin, 0.12) and ch.short is None and ch.decides
-    # an answer the geometry ranks behind must agree less by the bar too
+    # an answer the geometry rules out (its cost the matching's bar above the answer taken's) needs
+    # only to agree less; one it does not rule out must agree less by the bar
     ch = look_choice([0.40, 0.55, 0.60, 0.58], Rs, costs, 0.1, 25.0)
+    assert ch.short is None and ch.decides and np.isclose(ch.margin, 0.02)
+    ch = look_choice([0.40, 0.55, 0.60, 0.58], Rs, [0.0, 10.0, 50.0, 30.0], 0.1, 25.0)
     assert ch.short[0] == 3 and np.isclose(ch.short[1], 0.02) and ch.short[2] == 0.1 and not ch.decides
+    assert not look_choice([0.40, 0.55, 0.60, 0.61], Rs, costs, 0.1, 25.0).decides  # the look's first is 3
     # the truth within the matching's bar of its neighbour: neither cue tells them apart
     ch = look_choice([0.40, 0.55, 0.60, 0.48], Rs, [0.0, 10.0, 30.0, 60.0], 0.1, 25.0)
     assert ch.tied == [2] and ch.short is None and not ch.decides
