@@ -60,17 +60,18 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     the look ranks every other answer below it, and each of them is ruled out by one cue: it agrees
     less by at least ``bar`` (by any margin when the answer is the geometry's own first: the two
     cues then agree, and only an answer that overturns the lines' ranking needs the bar), or it
-    costs the matching's bar more than the answer (the geometry rules it out); the geometry keeps it (its cost within the matching's
-    bar of the best: one of the answers the geometry could not tell apart, refined as the best was),
-    no rotation near it agrees better by ``bar``
+    costs the matching's bar more than the answer (the geometry rules it out); the geometry keeps
+    it (its cost within the matching's bar of the best: one of the answers the geometry could not
+    tell apart, refined as the best was), no rotation near it agrees better by ``bar``
     (:meth:`~catadioptric.photometric.RotationAgreement.best_near`: the answer is where the images
     agree, not only the best of the answers), and image B agrees with image A turned by it by
     :data:`LOOK_SIGMAS` standard errors of that agreement
-    (:meth:`~catadioptric.photometric.RotationAgreement.agreement`: the look sees the scene under it). ``res`` then holds it, decisive, its candidates first;
-    its ``margin`` stays the geometry's (negative when the geometry ranked another first). What was measured
-    goes to ``pose.evidence["look"]`` (each answer's candidate index and agreement, the one it ranks
-    first, the answer taken, its margin, the best agreement near it and how far, the standard error
-    of its own agreement, the bar, whether it decided) and the notes. Returns whether it decided."""
+    (:meth:`~catadioptric.photometric.RotationAgreement.agreement`: the look sees the scene under
+    it). ``res`` then holds it, decisive, its candidates first; its ``margin`` stays the geometry's
+    (negative when the geometry ranked another first). What was measured goes to
+    ``pose.evidence["look"]`` (each answer's candidate index and agreement, the one it ranks first,
+    the answer taken, its margin, the best agreement near it and how far, the standard error of its
+    own agreement, the bar, whether it decided) and the notes. Returns whether it decided."""
     from .photometric import RotationAgreement
     from .pose import rotation_angle_deg
 

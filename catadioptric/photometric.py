@@ -59,6 +59,13 @@ def _rotations(rotations) -> np.ndarray:
     return R
 
 
+def _rotation(R, name: str) -> np.ndarray:
+    R = np.asarray(R, dtype=float)
+    if R.shape != (3, 3) or not np.all(np.isfinite(R)):
+        raise CatadioptricError(f"{name}: expected a finite (3, 3) rotation matrix, got shape {R.shape}")
+    return R
+
+
 def _correlation(a, b) -> float:
     """Pearson's correlation of two samples (0 when either is constant; NaN when empty)."""
     if len(a) == 0:
@@ -158,8 +165,8 @@ class RotationAgreement:
         elevation, :attr:`blocks`; each block that either rotation sees left out in turn, both
         correlations computed again): how much the margin owes to one part of the image. NaN (both)
         when either rotation leaves too little of B seen in A (the error alone with fewer than two blocks)."""
-        la, ha = self._seen(np.asarray(R_first, dtype=float))
-        lo, ho = self._seen(np.asarray(R_other, dtype=float))
+        la, ha = self._seen(_rotation(R_first, "R_first"))
+        lo, ho = self._seen(_rotation(R_other, "R_other"))
         if ha is None or ho is None:
             return float("nan"), float("nan")
         full_a, full_o = np.full(len(self.d_b), np.nan), np.full(len(self.d_b), np.nan)
@@ -176,7 +183,7 @@ class RotationAgreement:
         its jackknife standard error over the blocks :meth:`margin` uses: whether image B agrees
         with A turned by ``R`` at all, beyond what one part of the image makes of it. NaN (both) when
         ``R`` leaves too little of B seen in A."""
-        la, ha = self._seen(np.asarray(R, dtype=float))
+        la, ha = self._seen(_rotation(R, "R"))
         if ha is None:
             return float("nan"), float("nan")
         full = np.full(len(self.d_b), np.nan)

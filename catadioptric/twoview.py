@@ -74,8 +74,9 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
     :data:`COVARIANCE_SCALE`, measured on rendered pairs; 1: the fit's own). ``look``: an answer that
     only its margin left ambiguous is decided by the images' look where it clearly prefers one of
     the answers the geometry keeps, and an answer the geometry decided is left ambiguous where the
-    look plainly prefers another (:func:`catadioptric.look.settle_by_look`, :func:`catadioptric.look.check_by_look`). ``calibration_rms_px``: the cameras'
-    calibration rms in pixels (see :func:`catadioptric.pose.relative_pose`; 0 for a rendered rig).
+    look plainly prefers another (:func:`catadioptric.look.settle_by_look`,
+    :func:`catadioptric.look.check_by_look`). ``calibration_rms_px``: the cameras' calibration rms
+    in pixels (see :func:`catadioptric.pose.relative_pose`; 0 for a rendered rig).
     For the lines of one planar target that a half-turn about its axes maps onto itself (a
     chessboard, masked), call it with ``look=False``, then
     :func:`catadioptric.pose.twins.flag_twins` on ``res.pose`` (an answer whose twin under such a

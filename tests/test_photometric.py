@@ -71,6 +71,14 @@ def test_bad_input_is_named(room):
         rotation_agreement(img, img, cam, cam, [np.eye(3)], masks=(None, np.ones((10, 10), np.uint8)))
     with pytest.raises(CatadioptricError, match="image_a: expected the camera's size"):
         rotation_agreement(img[:100], img, cam, cam, [np.eye(3)])
+    from catadioptric.photometric import RotationAgreement
+
+    judge = RotationAgreement(img, img, cam, cam)
+    bad = r"R_other: expected a finite \(3, 3\) rotation matrix, got shape \(1, 3, 3\)"
+    with pytest.raises(CatadioptricError, match=bad):
+        judge.margin(np.eye(3), np.eye(3)[None])
+    with pytest.raises(CatadioptricError, match="R: expected a finite"):
+        judge.agreement(np.full((3, 3), np.nan))
     # nothing of B seen in A: no agreement measured
     none = np.zeros(img.shape[:2], np.uint8)
     assert np.isnan(rotation_agreement(img, img, cam, cam, [np.eye(3)], masks=(none, None))[0])

@@ -710,7 +710,8 @@ def test_the_images_look_leaves_ambiguous_an_answer_of_the_geometry_it_contradic
     far = [k for k in c["candidates"] if rotation_angle_deg(p.candidates[k].R @ wrong.R.T) > LOOK_SAME_DEG]
     assert c["rival"] == max(far, key=ag.get)
     m, se = judge.margin(p.candidates[c["rival"]].R, wrong.R)
-    assert np.isclose(c["margin"], m) and np.isclose(c["margin"], ag[c["rival"]] - ag[0]) and np.isclose(c["margin_se"], se)
+    assert np.isclose(c["margin"], m) and np.isclose(c["margin"], ag[c["rival"]] - ag[0])
+    assert np.isclose(c["margin_se"], se)
     assert m >= max(LOOK_BAR, LOOK_SIGMAS * se) and se > 0
     # with a bar above the margin, the geometry's answer stands (its check recorded)
     assert not check_by_look(high, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]), bar=1.01 * m)
