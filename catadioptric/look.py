@@ -72,7 +72,6 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     ``pose.evidence["look"]`` (each answer's candidate index and agreement, the one it ranks first,
     the answer taken, its margin, the best agreement near it and how far, the standard error of its
     own agreement, the bar, whether it decided) and the notes. Returns whether it decided."""
-    from .photometric import RotationAgreement
     from .pose import rotation_angle_deg
 
     p = res.pose
@@ -83,11 +82,10 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     why = ev.get("ambiguous_by") if ev else None
     if not p.ambiguous or not why or not set(why) <= {"margin", "lines_in_order"}:
         return False
-    answers = _answers(p)
-    if len(answers) < 2 or answers[0] != 0:
+    scored = _scored(p, images, cams, masks)
+    if scored is None:
         return False
-    judge = RotationAgreement(images[0], images[1], cams[0], cams[1], masks=masks)
-    agree = judge(np.stack([p.candidates[k].R for k in answers]))
+    answers, judge, agree = scored
     unseen = ~np.isfinite(agree)
     look = {"candidates": answers, "agreement": [float(a) for a in agree], "best": None, "ranked_first": None,
             "margin": float("nan"), "nearby": None, "agreement_se": float("nan"), "bar": float(bar),
@@ -157,9 +155,12 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     return True
 
 
-def _answers(p) -> list:
-    """The different answers among ``p.candidates`` (indices): rotations more than
-    :data:`~catadioptric.pose.labelled.SAME_ANSWER_DEG` apart, the cheapest of each, finite costs only."""
+def _scored(p, images, cams, masks):
+    """The different answers among ``p.candidates`` (indices: rotations more than
+    :data:`~catadioptric.pose.labelled.SAME_ANSWER_DEG` apart, the cheapest of each, finite costs
+    only), the images' judge and each answer's agreement: ``(answers, judge, agreement)``; None when
+    there are fewer than two answers or the geometry's first is not one of them."""
+    from .photometric import RotationAgreement
     from .pose import rotation_angle_deg
     from .pose.labelled import SAME_ANSWER_DEG
 
@@ -167,7 +168,10 @@ def _answers(p) -> list:
     for k, c in enumerate(p.candidates):
         if np.isfinite(c.cost) and all(rotation_angle_deg(c.R @ p.candidates[j].R.T) > SAME_ANSWER_DEG for j in answers):
             answers.append(k)
-    return answers
+    if len(answers) < 2 or answers[0] != 0:
+        return None
+    judge = RotationAgreement(images[0], images[1], cams[0], cams[1], masks=masks)
+    return answers, judge, judge(np.stack([p.candidates[k].R for k in answers]))
 
 
 def check_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, None), *, bar: float = LOOK_BAR) -> bool:
@@ -182,19 +186,17 @@ def check_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, N
     agrees best beyond :data:`LOOK_SAME_DEG`, its margin over the answer and that margin's standard
     error, the bar, whether it contradicts). Returns whether the answer was left ambiguous; answers
     already ambiguous, of the label path, or with no other answer are left alone."""
-    from .photometric import RotationAgreement
     from .pose import rotation_angle_deg
 
     p = res.pose
     ev = p.evidence
     if ev is None or p.ambiguous:
         return False
-    answers = _answers(p)
-    if len(answers) < 2 or answers[0] != 0:
+    scored = _scored(p, images, cams, masks)
+    if scored is None:
         return False
+    answers, judge, agree = scored
     R0 = p.candidates[0].R
-    judge = RotationAgreement(images[0], images[1], cams[0], cams[1], masks=masks)
-    agree = judge(np.stack([p.candidates[k].R for k in answers]))
     far = [i for i, k in enumerate(answers) if rotation_angle_deg(p.candidates[k].R @ R0.T) > LOOK_SAME_DEG
            and np.isfinite(agree[i])]
     check = {"candidates": answers, "agreement": [float(a) for a in agree], "rival": None, "margin": float("nan"),

@@ -94,6 +94,7 @@ def _look(res, R_gt) -> dict:
     None where it was not asked), with the margin by which the best other answer beyond
     ``LOOK_SAME_DEG`` agrees better than the answer (negative: worse) and that margin's standard error
     (None where not measured)."""
+    from .._io import jsonable
     from ..pose import rotation_angle_deg
 
     lk = (res.evidence or {}).get("look")
@@ -102,27 +103,22 @@ def _look(res, R_gt) -> dict:
            "look_nearby_gain": None, "look_agreement": None, "look_agreement_se": None, "look_contradicts": None,
            "look_check_margin": None, "look_check_se": None}
     if check is not None:
-        out |= {"look_contradicts": bool(check["contradicts"]), "look_check_margin": _number(check["margin"]),
-                "look_check_se": _number(check["margin_se"])}
+        out |= {"look_contradicts": bool(check["contradicts"]), "look_check_margin": jsonable(check["margin"]),
+                "look_check_se": jsonable(check["margin_se"])}
     if not lk:
         return out
     out |= {"look_decided": bool(lk["decided"]), "look_margin": float(lk["margin"]),
-            "look_agreement_se": _number(lk.get("agreement_se"))}
+            "look_agreement_se": jsonable(lk.get("agreement_se"))}
     if lk["best"] is not None:
         first = res.candidates[0] if lk["decided"] else None  # a decided answer is the look's best, first
         best = first if first is not None else res.candidates[lk["best"]]
         cost0 = min(c.cost for c in res.candidates)
-        out |= {"look_agreement": _number(lk["agreement"][lk["candidates"].index(lk["best"])]),
+        out |= {"look_agreement": jsonable(lk["agreement"][lk["candidates"].index(lk["best"])]),
                 "look_best_error_deg": rotation_angle_deg(best.R @ R_gt.T),
                 "look_best_within_bar": bool(best.cost - cost0 < res.evidence["bar"])}
         if lk["nearby"] is not None:
             out["look_nearby_gain"] = float(lk["nearby"]["agreement"] - lk["agreement"][lk["candidates"].index(lk["best"])])
     return out
-
-
-def _number(x) -> float | None:
-    """``x`` as a float, None when it is not finite (JSON has no NaN)."""
-    return float(x) if x is not None and np.isfinite(x) else None
 
 
 def _mahalanobis(res, R_gt, t_gt) -> dict:
