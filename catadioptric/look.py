@@ -18,7 +18,7 @@ if TYPE_CHECKING:
     from .twoview import ImagePairPose
 
 __all__ = ["LOOK_BAR", "LOOK_SAME_DEG", "LOOK_SIGMAS", "settle_by_look", "check_by_look", "look_choice", "LookChoice",
-           "ranked_agreement"]
+           "ranked_agreement", "look_figure"]
 
 
 #: the agreement of the images (:func:`catadioptric.photometric.rotation_agreement`, a correlation) by
@@ -331,6 +331,55 @@ def ranked_agreement(agreement, *, masked: bool):
     if unseen.all() or (unseen.any() and masked):
         return None
     return np.where(unseen, -1.0, a)
+
+
+def look_figure(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, None), *, step: int = 2):
+    """What the images' look compares, for a reader to see: image B, image A turned by the answer
+    (``res.pose``'s first candidate) and image A turned by the other answer that agrees best among
+    those more than :data:`LOOK_SAME_DEG` from it
+    (:func:`catadioptric.photometric.turned_image`, every ``step``-th pixel; the scene taken at
+    infinity, as the look takes it), each titled with its agreement and that agreement's standard
+    error (:meth:`~catadioptric.photometric.RotationAgreement.agreement`; under ``masks``). A
+    matplotlib figure (``catadioptric relative-pose`` writes it as ``look.png``); None when the pose
+    has no other answer (fewer than two rotations more than
+    :data:`~catadioptric.pose.labelled.SAME_ANSWER_DEG` apart) to compare."""
+    from ._extras import require
+    from .photometric import turned_image
+    from .pose import rotation_angle_deg
+
+    p = res.pose
+    scored = _scored(p, images, cams, masks)
+    if scored is None:
+        return None
+    answers, judge, agree = scored
+    R0 = p.candidates[0].R
+    far = [i for i, k in enumerate(answers) if rotation_angle_deg(p.candidates[k].R @ R0.T) > LOOK_SAME_DEG]
+    shown = [0] + ([max(far, key=lambda i: agree[i] if np.isfinite(agree[i]) else -np.inf)] if far else [])
+    require("matplotlib", "the images' look figure")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .detect.image import to_channels
+
+    def show(ax, img, title):
+        shown_img = np.clip(np.nan_to_num(img, nan=0.0), 0, 255) / 255.0
+        ax.imshow(shown_img[..., 0] if shown_img.shape[2] == 1 else shown_img, cmap="gray", vmin=0, vmax=1)
+        ax.set_title(title, fontsize=8)
+        ax.set_axis_off()
+
+    fig, axes = plt.subplots(1, 1 + len(shown), figsize=(3.6 * (1 + len(shown)), 3.3), dpi=100, squeeze=False)
+    show(axes[0, 0], to_channels(images[1]), "image B")
+    for ax, i in zip(axes[0, 1:], shown):
+        c = p.candidates[answers[i]]
+        a, se = judge.agreement(c.R)
+        what = "the answer" if i == 0 else (f"candidate {answers[i]}, {rotation_angle_deg(c.R @ R0.T):.0f} deg from "
+                                             f"the answer")
+        seen = f"agreement {a:.3f} (se {se:.3f})" if np.isfinite(a) else "too little of B seen in A"
+        show(ax, turned_image(images[0], cams[0], cams[1], c.R, step=step), f"image A turned by {what}\n{seen}")
+    fig.tight_layout()
+    return fig
 
 
 def _take_rival(res: ImagePairPose, k: int):

@@ -22,7 +22,7 @@ import numpy as np
 
 from ._checks import CatadioptricError, as_count, as_scalar
 
-__all__ = ["rotation_agreement", "RotationAgreement", "BLUR_PX", "STEP", "MIN_SAMPLES", "NEAR_START_DEG",
+__all__ = ["rotation_agreement", "turned_image", "RotationAgreement", "BLUR_PX", "STEP", "MIN_SAMPLES", "NEAR_START_DEG",
            "NEAR_EVALS", "BLOCKS"]
 
 #: the Gaussian blur of both images' luminance (pixels) before they are compared
@@ -50,6 +50,50 @@ def rotation_agreement(image_a, image_b, cam_a, cam_b, rotations, *, masks=(None
     :class:`RotationAgreement` keeps the images' preparation for more rotations."""
     return RotationAgreement(image_a, image_b, cam_a, cam_b, masks=masks, step=step, blur_px=blur_px,
                              min_samples=min_samples)(rotations)
+
+
+def turned_image(image_a, cam_a, cam_b, R, *, step: int = 1) -> np.ndarray:
+    """Image A as camera B would see it were the scene at infinity and ``x_B = R x_A + t``: each
+    pixel of B (every ``step``-th row and column, each a ``step`` x ``step`` block) that sees the world
+    takes A's colour, interpolated, at the vanishing point of its ray's direction turned into A's frame
+    (``R^T d_B``), as :func:`rotation_agreement` compares them, unblurred. ``(H_b, W_b, C)`` float
+    levels on the 8-bit scale (C as the image has, :func:`catadioptric.detect.image.to_channels`), NaN
+    where B sees nothing or A does not see that direction: what image B should look like under ``R``,
+    for a reader to set beside it (``catadioptric relative-pose`` writes ``look.png``)."""
+    from scipy.ndimage import map_coordinates
+
+    from .detect.image import to_channels
+    from .detect.region import mirror_region
+
+    step = as_count(step, "step")
+    a = to_channels(image_a)
+    R = _rotation(R, "R")
+    seen_a = mirror_region(cam_a, erode_px=0)
+    if seen_a.shape != a.shape[:2]:
+        raise CatadioptricError(f"image_a: expected the camera's size {seen_a.shape[1]}x{seen_a.shape[0]}, got "
+                                f"{a.shape[1]}x{a.shape[0]}")
+    region = mirror_region(cam_b, erode_px=0)
+    H, W = region.shape
+    v, u = np.mgrid[0:H:step, 0:W:step]
+    keep = region[v, u]
+    uv_b = np.stack([u[keep], v[keep]], axis=-1).astype(float)
+    out = np.full((len(v), v.shape[1], a.shape[2]), np.nan)
+    rays = cam_b.backproject(uv_b)
+    ok = np.asarray(rays.valid, bool) & np.all(np.isfinite(rays.directions), axis=-1)
+    vp = cam_a.vanishing_points(np.where(ok[:, None], rays.directions, 0.0) @ R)
+    seen = vp.valid & vp.in_image & ok[:, None]
+    uv_a = vp.uv[np.arange(len(uv_b)), np.argmax(seen, axis=-1)]
+    hit = seen.any(axis=-1)
+    col = np.clip(np.rint(np.where(hit, uv_a[:, 0], 0)), 0, a.shape[1] - 1).astype(int)
+    row = np.clip(np.rint(np.where(hit, uv_a[:, 1], 0)), 0, a.shape[0] - 1).astype(int)
+    hit &= seen_a[row, col]
+    sub = np.full((len(uv_b), a.shape[2]), np.nan)
+    for c in range(a.shape[2]):
+        sub[hit, c] = map_coordinates(a[..., c], [uv_a[hit, 1], uv_a[hit, 0]], order=1, mode="nearest")
+    out[keep] = sub
+    if step > 1:
+        out = np.repeat(np.repeat(out, step, axis=0), step, axis=1)[:H, :W]
+    return out
 
 
 def _rotations(rotations) -> np.ndarray:

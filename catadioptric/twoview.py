@@ -322,8 +322,9 @@ def _check_text(check: dict) -> str:
     return text + f" (another answer agrees better by {m:.3f}{errors})"
 
 
-def image_pair_markdown(summary: dict, command: str) -> str:
-    """A short Markdown report of :func:`image_pair_summary`'s dict."""
+def image_pair_markdown(summary: dict, command: str, *, look_png: bool = False) -> str:
+    """A short Markdown report of :func:`image_pair_summary`'s dict (``look_png``: it shows ``look.png``,
+    the images' look, beside ``overlay.png``)."""
     from .pose import rotation_angle_deg
 
     def known(x):
@@ -388,8 +389,34 @@ def image_pair_markdown(summary: dict, command: str) -> str:
               "|---|---|---|---|---|"]
     lines += [f"| {f['family_a']} | {f['family_b']} | {f['sign']:+d} | {f['lines_a']} | {f['lines_b']} |"
               for f in summary["matched_families"]]
-    lines += ["", "![overlay](overlay.png)", "", "Notes:", ""] + [f"- {n}" for n in summary["notes"]]
+    lines += ["", "![overlay](overlay.png)", ""]
+    if look_png:
+        lines += ["The images' look: image B; image A turned by the answer; image A turned by the other answer "
+                  "that agrees best (the scene taken at infinity, as the look compares them):", "",
+                  "![the images' look](look.png)", ""]
+    lines += ["Notes:", ""] + [f"- {n}" for n in summary["notes"]]
     return "\n".join(lines) + "\n"
+
+
+def _write_look_figure(out: str, res: ImagePairPose, images, cams, masks) -> bool:
+    """``look.png`` in ``out``: :func:`catadioptric.look.look_figure` (image B, and A turned by the
+    answer and by the best other answer); False when the pose has no other answer to show."""
+    import io
+    import os
+
+    import matplotlib.pyplot as plt
+
+    from ._io import atomic_write_bytes
+    from .look import look_figure
+
+    fig = look_figure(res, images, cams, masks)
+    if fig is None:
+        return False
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=fig.dpi)
+    plt.close(fig)
+    atomic_write_bytes(os.path.join(out, "look.png"), buf.getvalue())
+    return True
 
 
 def _calibration_rms(args) -> tuple[float, list | None]:
@@ -465,8 +492,12 @@ def _run(args) -> int:
                                          "rig": [args.rig, args.rig_b or args.rig]}
     atomic_write_json(os.path.join(args.out, "pose.json"), jsonable(summary))
     write_png(os.path.join(args.out, "overlay.png"), pair_overlay(images[0], images[1], res))
+    wrote = ["pose.json", "report.md", "overlay.png"]
+    if not args.no_look and _write_look_figure(args.out, res, images, (cam_a, cam_b), masks):
+        wrote.append("look.png")
     command = "catadioptric " + " ".join(shlex.quote(a) for a in sys.argv[1:])
-    atomic_write_bytes(os.path.join(args.out, "report.md"), image_pair_markdown(summary, command).encode())
+    atomic_write_bytes(os.path.join(args.out, "report.md"),
+                       image_pair_markdown(summary, command, look_png="look.png" in wrote).encode())
     from .pose import rotation_angle_deg
 
     p = res.pose
@@ -475,7 +506,7 @@ def _run(args) -> int:
         t = "zero, not observable (no parallax)"
     print(f"{len(res.family_map)} families matched, {p.lines_matched} lines; turn {rotation_angle_deg(p.R):.3f} deg, "
           f"translation {t}; {'AMBIGUOUS' if p.ambiguous else 'decisive'} (margin {p.margin:.1f}); "
-          f"{res.seconds['total']:.1f} s; wrote {os.path.join(args.out, 'pose.json')}, report.md, overlay.png")
+          f"{res.seconds['total']:.1f} s; wrote {os.path.join(args.out, wrote[0])}, {', '.join(wrote[1:])}")
     return 3 if p.ambiguous else 0
 
 

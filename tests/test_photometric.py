@@ -101,6 +101,37 @@ def test_the_rotation_where_the_images_agree_best_is_found_near_a_wrong_one(room
 
 
 
+def test_the_turned_image_shows_what_a_sees_along_r_transposed_d_b(room):
+    """:func:`turned_image` of an image A whose every pixel shows its own ray's direction (three
+    levels, ``128 + 100 d_A``): at each pixel of B it shows ``128 + 100 R^T d_B``, to within the most
+    the field changes between two neighbouring pixels of A (what a bilinear read can miss), and
+    nothing (NaN) where B sees nothing; a step repeats its top-left pixel over each block."""
+    from catadioptric.detect.region import mirror_region
+    from catadioptric.photometric import turned_image
+
+    cam, img = room
+    H, W = img.shape[:2]
+    uv = np.stack(np.meshgrid(np.arange(W, dtype=float), np.arange(H, dtype=float)), -1).reshape(-1, 2)
+    rays = cam.backproject(uv)
+    d = np.where(rays.valid[:, None], rays.directions, np.nan).reshape(H, W, 3)
+    field = 128.0 + 100.0 * d
+    step_px = max(np.nanmax(np.abs(np.diff(field, axis=0))), np.nanmax(np.abs(np.diff(field, axis=1))))
+    assert step_px < 2.0  # a smooth field: the bound below is a fraction of its range (200 levels)
+    image_a = np.nan_to_num(field, nan=0.0) / 255.0
+    R = _rot([0.3, -0.2, 1.0], 35)
+    out = turned_image(image_a, cam, cam, R)
+    want = 128.0 + 100.0 * d @ R  # R^T d_B for each pixel's ray
+    shown = np.isfinite(out[..., 0])
+    assert shown.mean() > 0.3 and not np.any(shown & ~mirror_region(cam, erode_px=0))
+    assert np.nanmax(np.abs(out - want)[shown]) <= step_px
+    # the other way round it is not: the turn is x_B = R x_A
+    wrong = turned_image(image_a, cam, cam, R.T)
+    assert np.nanmedian(np.abs(wrong - want)[np.isfinite(wrong[..., 0])]) > 20 * step_px
+    coarse = turned_image(image_a, cam, cam, R, step=3)
+    np.testing.assert_array_equal(coarse[::3, ::3], out[::3, ::3])
+    np.testing.assert_array_equal(coarse[1::3, 2::3], out[:-1:3, :-2:3])
+
+
 def test_the_margin_and_its_jackknife_error_over_blocks_of_b(room):
     """:meth:`RotationAgreement.margin`: the difference of the two agreements, and its standard error
     by the jackknife over the blocks of B's sampled rays, each block left out by masking its pixels

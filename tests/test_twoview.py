@@ -241,6 +241,37 @@ def test_cli_writes_pose_report_and_overlay(street, tmp_path, capsys):
         text = f.read()
     assert "![overlay](overlay.png)" in text
     assert f"against a bar of {ev['bar']:g}; without the lines' appearance, by the geometry alone" in text
+    # the images' look as a reader sees it: B, and A turned by the answer and by another answer
+    assert os.path.getsize(os.path.join(out, "look.png")) > 10000 and "![the images' look](look.png)" in text
+
+
+def test_the_look_figure_shows_the_answer_and_the_other_answer_that_agrees_best(street, with_prior):
+    """:func:`catadioptric.look.look_figure`: image B and A turned by the answer and by the best other
+    answer beyond ``LOOK_SAME_DEG``, each titled with its agreement as the look measures it; nothing to
+    show for a pose with one answer."""
+    import copy
+
+    from catadioptric.look import LOOK_SAME_DEG, look_figure
+    from catadioptric.photometric import RotationAgreement
+
+    _, a, b, _, _ = street
+    images, cams = (a["beauty"], b["beauty"]), (a["camera"], a["camera"])
+    fig = look_figure(with_prior, images, cams)
+    titles = [ax.get_title() for ax in fig.axes]
+    assert len(titles) == 3 and titles[0] == "image B", titles
+    judge = RotationAgreement(*images, *cams)
+    p = with_prior.pose
+    agree, se = judge.agreement(p.R)
+    assert titles[1] == f"image A turned by the answer\nagreement {agree:.3f} (se {se:.3f})"
+    k = int(titles[2].split("candidate ")[1].split(",")[0])
+    apart = rotation_angle_deg(p.candidates[k].R @ p.R.T)
+    assert apart > LOOK_SAME_DEG and f"{apart:.0f} deg from the answer" in titles[2]
+    others = [c.R for c in p.candidates if rotation_angle_deg(c.R @ p.R.T) > LOOK_SAME_DEG]
+    assert f"agreement {judge(np.stack(others)).max():.3f}" in titles[2]
+    one = copy.copy(with_prior)
+    one.pose = copy.copy(p)
+    one.pose.candidates = p.candidates[:1]
+    assert look_figure(one, images, cams) is None
 
 
 def test_cli_errors_are_one_line(street, tmp_path, capsys):
