@@ -17,7 +17,7 @@ import numpy as np
 if TYPE_CHECKING:
     from .twoview import ImagePairPose
 
-__all__ = ["LOOK_BAR", "LOOK_SAME_DEG", "LOOK_SIGMAS", "NEAR_STEP", "settle_by_look", "check_by_look", "look_choice", "LookChoice",
+__all__ = ["LOOK_BAR", "LOOK_SAME_DEG", "LOOK_SIGMAS", "settle_by_look", "check_by_look", "look_choice", "LookChoice",
            "ranked_agreement", "look_figure"]
 
 
@@ -41,11 +41,6 @@ LOOK_SAME_DEG = 10.0
 #: turned by an answer for the look to decide it (:func:`settle_by_look`: a look that does not see
 #: the scene under the answer, as at wide baselines, confirms nothing)
 LOOK_SIGMAS = 2.0
-
-#: :func:`settle_by_look`'s search for the motion near an answer where the images agree best reads
-#: every ``NEAR_STEP``-th row and column of image B (the agreements' own: every
-#: :data:`catadioptric.photometric.STEP`-th)
-NEAR_STEP = 8
 
 
 def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, None), *, bar: float = LOOK_BAR) -> bool:
@@ -77,7 +72,6 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     ``pose.evidence["look"]`` (each answer's candidate index and agreement, the one it ranks first,
     the answer taken, its margin, the best agreement near it and how far, the standard error of its
     own agreement, the bar, whether it decided) and the notes. Returns whether it decided."""
-    from .photometric import RotationAgreement
     from .pose import rotation_angle_deg
 
     p = res.pose
@@ -136,10 +130,8 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
     if ch.decides and kept and refined:
         # where the images agree best near the answer, the translation let in at both (a scene at one
         # distance): without it, the parallax of a wide baseline moves the rotation where they agree best
-        # (on every NEAR_STEP-th pixel of B: the searches' hundreds of agreements at a quarter of the cost)
-        near = RotationAgreement(images[0], images[1], cams[0], cams[1], masks=masks, step=NEAR_STEP)
-        here, parallax = near.parallax(p.candidates[k].R)
-        R_near, _, a_near = near.best_near(p.candidates[k].R, parallax)
+        here, parallax = judge.parallax(p.candidates[k].R)
+        R_near, _, a_near = judge.best_near(p.candidates[k].R, parallax)
         gain, apart = a_near - here, rotation_angle_deg(R_near @ p.candidates[k].R.T)
         look["nearby"] = {"agreement": a_near, "apart_deg": apart, "agreement_here": here,
                           "parallax": [float(x) for x in parallax]}

@@ -23,7 +23,7 @@ import numpy as np
 from ._checks import CatadioptricError, as_count, as_scalar
 
 __all__ = ["rotation_agreement", "turned_image", "RotationAgreement", "BLUR_PX", "STEP", "MIN_SAMPLES", "NEAR_START_DEG",
-           "NEAR_EVALS", "BLOCKS", "PARALLAX_DIRECTIONS", "PARALLAX_SCALES", "PARALLAX_EVALS"]
+           "NEAR_EVALS", "BLOCKS", "PARALLAX_DIRECTIONS", "PARALLAX_SCALES"]
 
 #: the Gaussian blur of both images' luminance (pixels) before they are compared
 BLUR_PX = 3.0
@@ -39,8 +39,6 @@ NEAR_EVALS = 300
 #: parallax's lengths (the baseline over the scene's distance)
 PARALLAX_DIRECTIONS = 48
 PARALLAX_SCALES = (0.1, 0.2, 0.35, 0.5, 0.75)
-#: :meth:`RotationAgreement.parallax`: the most agreements of its search from the best of those
-PARALLAX_EVALS = 150
 #: :meth:`RotationAgreement.margin`'s blocks of B's rays: sectors of azimuth, bands of elevation
 BLOCKS = (8, 2)
 
@@ -265,16 +263,12 @@ class RotationAgreement:
         lum_a, hit = self._seen(_rotation(R, "R"), None if parallax is None else np.asarray(parallax, float))
         return float("nan") if hit is None else _correlation(lum_a, self.lum_b[hit])
 
-    def parallax(self, R, *, max_evals: int = PARALLAX_EVALS) -> tuple[float, np.ndarray]:
+    def parallax(self, R) -> tuple[float, np.ndarray]:
         """``(agreement, parallax)``: the best agreement under ``R`` (3, 3) over the parallaxes
-        (:meth:`at`) and the parallax that gives it: how well the images agree under ``R`` when the
-        translation, which :meth:`__call__` leaves out, is let in (one distance for the whole scene).
-        The best of the scene at infinity (a zero parallax) and ``u t`` (``t`` each of
-        :data:`PARALLAX_DIRECTIONS` unit directions of a Fibonacci sphere, ``u`` each of
-        :data:`PARALLAX_SCALES`), then Nelder-Mead's search over the parallax from it (a simplex of
-        0.05, at most ``max_evals`` agreements; deterministic)."""
-        from scipy.optimize import minimize
-
+        ``u t`` (:meth:`at`; ``t`` each of :data:`PARALLAX_DIRECTIONS` unit directions of a Fibonacci
+        sphere, ``u`` each of :data:`PARALLAX_SCALES`) and the scene at infinity (a zero parallax),
+        with the parallax that gives it: how well the images agree under ``R`` when the translation,
+        which :meth:`__call__` leaves out, is let in (one distance for the whole scene)."""
         R = _rotation(R, "R")
         best, where = self.at(R), np.zeros(3)
         for t in _fibonacci(PARALLAX_DIRECTIONS):
@@ -282,18 +276,6 @@ class RotationAgreement:
                 a = self.at(R, u * t)
                 if np.isfinite(a) and not a <= best:
                     best, where = a, u * t
-        if not np.isfinite(best):
-            return best, where
-
-        def cost(p):
-            a = self.at(R, where + p)
-            return -a if np.isfinite(a) else 1.0
-
-        res = minimize(cost, np.zeros(3), method="Nelder-Mead",
-                       options={"initial_simplex": np.vstack([np.zeros(3), 0.05 * np.eye(3)]), "xatol": 1e-3,
-                                "fatol": 1e-4, "maxfev": as_count(max_evals, "max_evals"), "adaptive": True})
-        if -res.fun > best:
-            best, where = float(-res.fun), where + res.x
         return best, where
 
     def best_near(self, R, parallax, *, start_deg: float = NEAR_START_DEG, max_evals: int = NEAR_EVALS):
