@@ -128,13 +128,9 @@ def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, 
             return False
     gain = apart = float("nan")
     if ch.decides and kept and refined:
-        # where the images agree best near the answer, the translation let in at both (a scene at one
-        # distance): without it, the parallax of a wide baseline moves the rotation where they agree best
-        here, parallax = judge.parallax(p.candidates[k].R)
-        R_near, _, a_near = judge.best_near(p.candidates[k].R, parallax)
-        gain, apart = a_near - here, rotation_angle_deg(R_near @ p.candidates[k].R.T)
-        look["nearby"] = {"agreement": a_near, "apart_deg": apart, "agreement_here": here,
-                          "parallax": [float(x) for x in parallax]}
+        R_near, a_near = judge.best_near(p.candidates[k].R)
+        gain, apart = a_near - float(agree[ch.taken]), rotation_angle_deg(R_near @ p.candidates[k].R.T)
+        look["nearby"] = {"agreement": a_near, "apart_deg": apart}
     seen, seen_se = float("nan"), float("nan")
     if ch.decides and kept and refined and gain < bar:
         seen, seen_se = judge.agreement(p.candidates[k].R)

@@ -100,7 +100,7 @@ def _look(res, R_gt) -> dict:
     lk = (res.evidence or {}).get("look")
     check = (res.evidence or {}).get("look_check")
     out = {"look_decided": None, "look_margin": None, "look_best_error_deg": None, "look_best_within_bar": None,
-           "look_nearby_gain": None, "look_nearby_apart_deg": None, "look_agreement": None, "look_agreement_se": None, "look_contradicts": None,
+           "look_nearby_gain": None, "look_agreement": None, "look_agreement_se": None, "look_contradicts": None,
            "look_check_margin": None, "look_check_se": None}
     if check is not None:
         out |= {"look_contradicts": bool(check["contradicts"]), "look_check_margin": jsonable(check["margin"]),
@@ -117,8 +117,7 @@ def _look(res, R_gt) -> dict:
                 "look_best_error_deg": rotation_angle_deg(best.R @ R_gt.T),
                 "look_best_within_bar": bool(best.cost - cost0 < res.evidence["bar"])}
         if lk["nearby"] is not None:
-            out["look_nearby_gain"] = float(lk["nearby"]["agreement"] - lk["nearby"]["agreement_here"])
-            out["look_nearby_apart_deg"] = float(lk["nearby"]["apart_deg"])
+            out["look_nearby_gain"] = float(lk["nearby"]["agreement"] - lk["agreement"][lk["candidates"].index(lk["best"])])
     return out
 
 
