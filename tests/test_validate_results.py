@@ -58,7 +58,8 @@ def tiny(tmp_path_factory):
 def test_a_committed_report_is_restored_and_written_again_byte_for_byte(tmp_path, capsys):
     for name, spec, extra, md in (("relative_pose_wide", "relative_pose_wide.toml", [], "report.md"),
                                   ("relative_pose_heldout", "relative_pose_heldout.toml", ["--images-only"],
-                                   "images.md")):
+                                   "images.md"),
+                                  ("relative_pose_blind", "relative_pose_blind.toml", ["--images-only"], "images.md")):
         committed = os.path.join(VALIDATE, name)
         data, out = str(tmp_path / name / "data"), tmp_path / name / "out"
         report = "images.json" if extra else "report.json"
