@@ -22,8 +22,8 @@ import numpy as np
 
 from ._checks import CatadioptricError, as_count, as_scalar
 
-__all__ = ["rotation_agreement", "turned_image", "RotationAgreement", "BLUR_PX", "STEP", "MIN_SAMPLES", "NEAR_START_DEG",
-           "NEAR_EVALS", "BLOCKS"]
+__all__ = ["rotation_agreement", "turned_image", "RotationAgreement", "BLUR_PX", "STEP", "MIN_SAMPLES",
+           "NEAR_START_DEG", "NEAR_EVALS", "BLOCKS"]
 
 #: the Gaussian blur of both images' luminance (pixels) before they are compared
 BLUR_PX = 3.0
@@ -80,13 +80,8 @@ def turned_image(image_a, cam_a, cam_b, R, *, step: int = 1) -> np.ndarray:
     out = np.full((len(v), v.shape[1], a.shape[2]), np.nan)
     rays = cam_b.backproject(uv_b)
     ok = np.asarray(rays.valid, bool) & np.all(np.isfinite(rays.directions), axis=-1)
-    vp = cam_a.vanishing_points(np.where(ok[:, None], rays.directions, 0.0) @ R)
-    seen = vp.valid & vp.in_image & ok[:, None]
-    uv_a = vp.uv[np.arange(len(uv_b)), np.argmax(seen, axis=-1)]
-    hit = seen.any(axis=-1)
-    col = np.clip(np.rint(np.where(hit, uv_a[:, 0], 0)), 0, a.shape[1] - 1).astype(int)
-    row = np.clip(np.rint(np.where(hit, uv_a[:, 1], 0)), 0, a.shape[0] - 1).astype(int)
-    hit &= seen_a[row, col]
+    uv_a, hit = _where_a_sees(cam_a, seen_a, np.where(ok[:, None], rays.directions, [0.0, 0.0, 1.0]) @ R)
+    hit &= ok
     sub = np.full((len(uv_b), a.shape[2]), np.nan)
     for c in range(a.shape[2]):
         sub[hit, c] = map_coordinates(a[..., c], [uv_a[hit, 1], uv_a[hit, 0]], order=1, mode="nearest")
@@ -94,6 +89,20 @@ def turned_image(image_a, cam_a, cam_b, R, *, step: int = 1) -> np.ndarray:
     if step > 1:
         out = np.repeat(np.repeat(out, step, axis=0), step, axis=1)[:H, :W]
     return out
+
+
+def _where_a_sees(cam_a, usable_a, d_a):
+    """Where image A shows each direction ``d_a (N, 3)`` of A's frame: ``(uv (N, 2), hit (N,))``, the
+    first of its vanishing points that A sees inside its image (zero where none), and whether there
+    is one and its nearest pixel is in ``usable_a`` (A's ``(H, W)`` mask of usable pixels)."""
+    vp = cam_a.vanishing_points(d_a)
+    seen = vp.valid & vp.in_image
+    hit = seen.any(axis=-1)
+    uv = np.where(hit[:, None], vp.uv[np.arange(len(d_a)), np.argmax(seen, axis=-1)], 0.0)
+    H, W = usable_a.shape
+    col = np.clip(np.rint(uv[:, 0]), 0, W - 1).astype(int)
+    row = np.clip(np.rint(uv[:, 1]), 0, H - 1).astype(int)
+    return uv, hit & usable_a[row, col]
 
 
 def _rotations(rotations) -> np.ndarray:
@@ -189,15 +198,7 @@ class RotationAgreement:
         d_b = self.d_b
         if len(d_b) < self.min_samples:
             return None, None
-        Ha, Wa = self.grey_a.shape
-        vp = self.cam_a.vanishing_points(d_b @ R)  # R^T d for each row d
-        seen = vp.valid & vp.in_image
-        uv_a = vp.uv[np.arange(len(d_b)), np.argmax(seen, axis=-1)]
-        hit = seen.any(axis=-1)
-        uv_a = np.where(hit[:, None], uv_a, 0.0)
-        col = np.clip(np.rint(uv_a[:, 0]), 0, Wa - 1).astype(int)
-        row = np.clip(np.rint(uv_a[:, 1]), 0, Ha - 1).astype(int)
-        hit &= self.usable_a[row, col]
+        uv_a, hit = _where_a_sees(self.cam_a, self.usable_a, d_b @ R)  # R^T d for each row d
         if hit.sum() < self.min_samples:
             return None, None
         return map_coordinates(self.grey_a, [uv_a[hit, 1], uv_a[hit, 0]], order=1, mode="nearest"), hit
