@@ -243,6 +243,13 @@ def test_cli_writes_pose_report_and_overlay(street, tmp_path, capsys):
     assert f"against a bar of {ev['bar']:g}; without the lines' appearance, by the geometry alone" in text
     # the images' look as a reader sees it: B, and A turned by the answer and by another answer
     assert os.path.getsize(os.path.join(out, "look.png")) > 10000 and "![the images' look](look.png)" in text
+    # with --no-look, no figure of it either
+    quiet = str(tmp_path / "no_look")
+    assert main([*args[:-4], "--out", quiet, "--max-rotation", "60", "--no-look"]) == 0
+    assert not os.path.exists(os.path.join(quiet, "look.png"))
+    with open(os.path.join(quiet, "report.md")) as f:
+        assert "look.png" not in f.read()
+    assert "look.png" not in capsys.readouterr().out
 
 
 def test_the_look_figure_shows_the_answer_and_the_other_answer_that_agrees_best(street, with_prior):
