@@ -17,8 +17,8 @@ import numpy as np
 if TYPE_CHECKING:
     from .twoview import ImagePairPose
 
-__all__ = ["LOOK_BAR", "LOOK_SAME_DEG", "LOOK_SIGMAS", "settle_by_look", "check_by_look", "look_choice", "LookChoice",
-           "ranked_agreement", "look_figure"]
+__all__ = ["LOOK_BAR", "LOOK_SAME_DEG", "LOOK_SIGMAS", "PARALLAX_STEP", "settle_by_look", "check_by_look",
+           "translation_by_look", "look_choice", "LookChoice", "ranked_agreement", "look_figure"]
 
 
 #: the agreement of the images (:func:`catadioptric.photometric.rotation_agreement`, a correlation) by
@@ -41,6 +41,11 @@ LOOK_SAME_DEG = 10.0
 #: turned by an answer for the look to decide it (:func:`settle_by_look`: a look that does not see
 #: the scene under the answer, as at wide baselines, confirms nothing)
 LOOK_SIGMAS = 2.0
+
+#: :func:`translation_by_look` reads every ``PARALLAX_STEP``-th row and column of image B (the
+#: agreements' own: every :data:`catadioptric.photometric.STEP`-th): its search's few hundred
+#: agreements at a quarter of the cost
+PARALLAX_STEP = 8
 
 
 def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, None), *, bar: float = LOOK_BAR) -> bool:
@@ -222,6 +227,43 @@ def check_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, N
                f"{need:.3f} (the look's bar {bar:g}, or {LOOK_SIGMAS:g} standard errors of that margin over blocks "
                f"of image B, {se:.3f})", *p.notes]
     return True
+
+
+def translation_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, None), *,
+                        step: int = PARALLAX_STEP) -> dict | None:
+    """The direction of the translation by the images' look under the answer's rotation: the
+    parallax ``t / D`` where image B agrees best with image A under ``res.pose.R``, the scene taken at
+    one distance ``D`` from B (:meth:`catadioptric.photometric.RotationAgreement.parallax`, every
+    ``step``-th pixel of B). It is the images' own estimate of where B moved, beside the lines'
+    (``res.pose.t``; at the benchmark's baselines of 2-8 m the lines' direction is often far off, or
+    reversed: docs/relative_pose.md, "The translation's direction"). What it finds goes to
+    ``pose.evidence["look_translation"]`` and is returned: ``direction`` (a unit vector of B's frame,
+    ``x_B = R x_A + t``; None when no parallax agrees better than the scene at infinity),
+    ``parallax`` (``|t| / D``), ``agreement`` (there) and ``agreement_at_infinity``, and
+    ``from_lines_deg``, the angle to the lines' translation (None without one). Returns None, and
+    records nothing, for a pose without ``evidence`` (the label path) or a rotation under which too
+    little of B is seen in A."""
+    from .photometric import RotationAgreement
+
+    p = res.pose
+    if p.evidence is None:
+        return None
+    judge = RotationAgreement(images[0], images[1], cams[0], cams[1], masks=masks, step=step)
+    at_infinity = judge.at(p.R)
+    agreement, parallax = judge.parallax(p.R)
+    if not np.isfinite(agreement):
+        return None
+    u = float(np.linalg.norm(parallax))
+    direction = parallax / u if u > 0 else None
+    apart = None
+    if direction is not None and p.t is not None and np.linalg.norm(p.t) > 0:
+        c = float(np.dot(direction, p.t) / np.linalg.norm(p.t))
+        apart = float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
+    out = {"direction": None if direction is None else [float(x) for x in direction], "parallax": u,
+           "agreement": float(agreement), "agreement_at_infinity": float(at_infinity), "from_lines_deg": apart,
+           "step": int(step)}
+    p.evidence["look_translation"] = out
+    return out
 
 
 @dataclass

@@ -23,7 +23,7 @@ import numpy as np
 from ._checks import CatadioptricError, as_count, as_scalar
 
 __all__ = ["rotation_agreement", "turned_image", "RotationAgreement", "BLUR_PX", "STEP", "MIN_SAMPLES",
-           "NEAR_START_DEG", "NEAR_EVALS", "BLOCKS"]
+           "NEAR_START_DEG", "NEAR_EVALS", "BLOCKS", "PARALLAX_DIRECTIONS", "PARALLAX_SCALES", "PARALLAX_EVALS"]
 
 #: the Gaussian blur of both images' luminance (pixels) before they are compared
 BLUR_PX = 3.0
@@ -36,6 +36,12 @@ NEAR_START_DEG = 3.0
 NEAR_EVALS = 150
 #: :meth:`RotationAgreement.margin`'s blocks of B's rays: sectors of azimuth, bands of elevation
 BLOCKS = (8, 2)
+#: :meth:`RotationAgreement.parallax`: the translation's directions tried (a Fibonacci sphere), the
+#: parallax's lengths (the baseline over the scene's distance) and the most agreements of the search
+#: from the best of those
+PARALLAX_DIRECTIONS = 48
+PARALLAX_SCALES = (0.1, 0.2, 0.35, 0.5, 0.75)
+PARALLAX_EVALS = 150
 
 
 def rotation_agreement(image_a, image_b, cam_a, cam_b, rotations, *, masks=(None, None), step: int = STEP,
@@ -139,7 +145,8 @@ def _blocks(d) -> np.ndarray:
 class RotationAgreement:
     """:func:`rotation_agreement` of two images, prepared once (their blurred luminance, usable
     pixels and B's rays) for any number of rotations: call it with ``rotations (K, 3, 3)``;
-    :meth:`best_near` looks for the rotation near one where the images agree best."""
+    :meth:`best_near` looks for the rotation near one where the images agree best; :meth:`at` and
+    :meth:`parallax` let the translation in (the scene at one distance from B)."""
 
     def __init__(self, image_a, image_b, cam_a, cam_b, *, masks=(None, None), step: int = STEP,
                  blur_px: float = BLUR_PX, min_samples: int = MIN_SAMPLES):
@@ -190,12 +197,16 @@ class RotationAgreement:
                 out[k] = _correlation(lum_a, self.lum_b[hit])
         return out
 
-    def _seen(self, R):
-        """A's blurred luminance at the vanishing points of B's sampled rays turned by ``R`` and which
-        of B's rays A sees (``(lum_a, hit)``); ``(None, None)`` below ``min_samples``."""
+    def _seen(self, R, parallax=None):
+        """A's blurred luminance at the vanishing points of B's sampled rays turned by ``R`` (each
+        ray's direction ``d`` moved to ``d - parallax`` and normalised first, :meth:`at`) and which of
+        B's rays A sees (``(lum_a, hit)``); ``(None, None)`` below ``min_samples``."""
         from scipy.ndimage import map_coordinates
 
         d_b = self.d_b
+        if parallax is not None:
+            d_b = d_b - parallax
+            d_b = d_b / np.linalg.norm(d_b, axis=-1, keepdims=True)
         if len(d_b) < self.min_samples:
             return None, None
         uv_a, hit = _where_a_sees(self.cam_a, self.usable_a, d_b @ R)  # R^T d for each row d
@@ -246,6 +257,51 @@ class RotationAgreement:
         k = len(theta)
         return whole, float(math.sqrt((k - 1) / k * float(np.sum((theta - theta.mean()) ** 2))))
 
+    def at(self, R, parallax=None) -> float:
+        """The agreement under ``R`` (3, 3) with the scene at one distance ``D`` from B rather than at
+        infinity: ``parallax`` ``(3,)`` is ``t / D`` (B's frame, ``x_B = R x_A + t``; None: at
+        infinity, as a call), each of B's rays ``d`` seen by A along ``R^T (d - t / D)`` (a point
+        ``D d`` of B's frame is ``R^T (D d - t)`` in A's). NaN when too little of B is seen in A."""
+        if parallax is not None:
+            parallax = np.asarray(parallax, dtype=float)
+            if parallax.shape != (3,) or not np.all(np.isfinite(parallax)):
+                raise CatadioptricError(f"parallax: expected a finite (3,) vector, got shape {parallax.shape}")
+        lum_a, hit = self._seen(_rotation(R, "R"), parallax)
+        return float("nan") if hit is None else _correlation(lum_a, self.lum_b[hit])
+
+    def parallax(self, R, *, max_evals: int = PARALLAX_EVALS) -> tuple[float, np.ndarray]:
+        """``(agreement, parallax)``: the best agreement under ``R`` (3, 3) over the parallaxes
+        ``t / D`` (:meth:`at`) and the parallax that gives it: how well the images agree under ``R``
+        with the translation let in (one distance ``D`` for the whole scene), and the direction of
+        the translation ``t`` that agrees best (zero: no parallax does better than the scene at
+        infinity). The best of the scene at infinity and ``u s`` (``s`` each of
+        :data:`PARALLAX_DIRECTIONS` unit directions of a Fibonacci sphere, ``u`` each of
+        :data:`PARALLAX_SCALES`), then Nelder-Mead's search over the parallax from it (a simplex of
+        0.05, at most ``max_evals`` agreements; deterministic). NaN and zero when ``R`` leaves too
+        little of B seen in A."""
+        from scipy.optimize import minimize
+
+        R = _rotation(R, "R")
+        best, where = self.at(R), np.zeros(3)
+        for s in _fibonacci(PARALLAX_DIRECTIONS):
+            for u in PARALLAX_SCALES:
+                a = self.at(R, u * s)
+                if np.isfinite(a) and not a <= best:
+                    best, where = a, u * s
+        if not np.isfinite(best) or not where.any():
+            return best, where
+
+        def cost(x):
+            a = self.at(R, where + x)
+            return -a if np.isfinite(a) else 1.0
+
+        res = minimize(cost, np.zeros(3), method="Nelder-Mead",
+                       options={"initial_simplex": np.vstack([np.zeros(3), 0.05 * np.eye(3)]), "xatol": 1e-3,
+                                "fatol": 1e-4, "maxfev": as_count(max_evals, "max_evals"), "adaptive": True})
+        if -res.fun > best:
+            best, where = float(-res.fun), where + res.x
+        return best, where
+
     def best_near(self, R, *, start_deg: float = NEAR_START_DEG, max_evals: int = NEAR_EVALS):
         """``(R_best, agreement)``: the rotation near ``R`` (3, 3) where the images agree best, by
         Nelder-Mead's search over a rotation ``exp(w) R`` from a simplex of ``start_deg`` degrees, at
@@ -269,3 +325,10 @@ class RotationAgreement:
         w = res.x if res.fun <= cost(np.zeros(3)) else np.zeros(3)
         Rb = Rotation.from_rotvec(w).as_matrix() @ R
         return Rb, float(self(Rb[None])[0])
+
+
+def _fibonacci(n: int) -> np.ndarray:
+    """``n`` unit vectors ``(n, 3)`` spread evenly over the sphere (a Fibonacci lattice)."""
+    i = np.arange(n) + 0.5
+    polar, azimuth = np.arccos(1.0 - 2.0 * i / n), math.pi * (1.0 + math.sqrt(5.0)) * i
+    return np.stack([np.cos(azimuth) * np.sin(polar), np.sin(azimuth) * np.sin(polar), np.cos(polar)], axis=-1)

@@ -75,7 +75,8 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
     only its margin left ambiguous is decided by the images' look where it clearly prefers one of
     the answers the geometry keeps, and an answer the geometry decided is left ambiguous where the
     look plainly prefers another (:func:`catadioptric.look.settle_by_look`,
-    :func:`catadioptric.look.check_by_look`). ``calibration_rms_px``: the cameras' calibration rms
+    :func:`catadioptric.look.check_by_look`), and the translation's direction is estimated by the look too
+    (:func:`catadioptric.look.translation_by_look`, ``pose.evidence["look_translation"]``). ``calibration_rms_px``: the cameras' calibration rms
     in pixels (see :func:`catadioptric.pose.relative_pose`; 0 for a rendered rig).
     For the lines of one planar target that a half-turn about its axes maps onto itself (a
     chessboard, masked), call it with ``look=False``, then
@@ -86,7 +87,7 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
     """
     from .detect import detect_lines
     from .detect.image import check_image_size, to_channels
-    from .look import settle_by_look
+    from .look import settle_by_look, translation_by_look
 
     cam_b = cam_a if cam_b is None else cam_b
     if not (isinstance(min_pixels, (int, np.integer)) and min_pixels >= 2):
@@ -127,6 +128,7 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
         raise CatadioptricError(f"{exc} ({mixed})") from None
     if look:
         settle_by_look(res, (image_a, image_b), (cam_a, cam_b), masks)
+        translation_by_look(res, (image_a, image_b), (cam_a, cam_b), masks)
     if mixed is not None:
         res.pose.notes = [mixed, *res.pose.notes]
     t2 = time.perf_counter()
@@ -382,6 +384,12 @@ def image_pair_markdown(summary: dict, command: str, *, look_png: bool = False) 
                      + (f"{t_std:.3g} m against a length of {n:.3g} m" if known(t_std) else "not estimated") + ")")
     else:
         lines.append(f"- translation direction (central model): {np.round(np.asarray(summary['t']), 4).tolist()}")
+    lt = (ev or {}).get("look_translation")
+    if lt and lt["direction"] is not None:
+        apart = "" if lt["from_lines_deg"] is None else f"; {lt['from_lines_deg']:.1f} deg from the lines' translation"
+        lines.append(f"- translation direction by the images' look: {np.round(np.asarray(lt['direction']), 4).tolist()} "
+                     f"(the scene at one distance D, |t| / D = {lt['parallax']:.2f}; agreement {lt['agreement']:.3f}, "
+                     f"{lt['agreement_at_infinity']:.3f} at infinity{apart})")
     sigma = summary["sigma_px"]
     lines += [f"- lines matched in both views: {summary['lines_matched']}"
               + (f"; pixel noise estimate {sigma:.2f} px" if known(sigma) else ""), "",

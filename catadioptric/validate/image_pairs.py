@@ -121,6 +121,19 @@ def _look(res, R_gt) -> dict:
     return out
 
 
+def _look_translation(res, t_true) -> dict:
+    """The images' look's direction of the translation (:func:`catadioptric.look.translation_by_look`)
+    against the true one, ``t_true`` (B's frame, from A's centre to B's, as the central model's
+    translation is scored): ``translation_direction_error_look_deg`` and the parallax it found
+    (``look_parallax``, the baseline over the scene's distance); None where it was not measured or no
+    parallax agreed better than the scene at infinity."""
+    lt = (res.evidence or {}).get("look_translation")
+    if not lt or lt["direction"] is None:
+        return {"translation_direction_error_look_deg": None, "look_parallax": None if not lt else lt["parallax"]}
+    return {"translation_direction_error_look_deg": angle_between_deg(np.asarray(lt["direction"]), t_true),
+            "look_parallax": lt["parallax"]}
+
+
 def _mahalanobis(res, R_gt, t_gt) -> dict:
     """The errors against the answer's own covariance: ``rotation_mahalanobis2``, ``w^T C_w^-1 w`` for
     the error rotation ``exp(w) = R R_gt^T`` (left, as the covariance), and
@@ -187,7 +200,7 @@ def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, steps
     from ..detect import detect_lines, evaluate_view
     from ..pose import rotation_angle_deg
     from ..pose.families import rays_centre
-    from ..look import settle_by_look
+    from ..look import settle_by_look, translation_by_look
     from ..twoview import pair_overlay, pose_from_detections
 
     ds = dataset if isinstance(dataset, Dataset) else Dataset(dataset)
@@ -225,6 +238,7 @@ def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, steps
             continue
         if look:
             settle_by_look(pair, (va["beauty"], vb["beauty"]), (va["camera"], vb["camera"]))
+            translation_by_look(pair, (va["beauty"], vb["beauty"]), (va["camera"], vb["camera"]))
         res, fmap = pair.pose, pair.family_map
         # the families found in both views at once are scored as the detected ones are
         fdets = pair.detections
@@ -243,6 +257,7 @@ def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, steps
                 rec["translation_direction_error_deg"] = angle_between_deg(res.t, t_gt)
             else:
                 rec["translation_direction_error_deg"] = angle_between_deg(res.t, R_gt @ centres[0] + t_gt - centres[1])
+        rec.update(_look_translation(res, R_gt @ centres[0] + t_gt - centres[1]))
         rec.update(_mahalanobis(res, R_gt, t_gt))
         rec.update(_families_check(fmap, fdets, fscores, res.R, R_gt, label_families, label_families_3))
         out["runs"].append(rec)
