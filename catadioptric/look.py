@@ -17,8 +17,8 @@ import numpy as np
 if TYPE_CHECKING:
     from .twoview import ImagePairPose
 
-__all__ = ["LOOK_BAR", "LOOK_SAME_DEG", "LOOK_SIGMAS", "PARALLAX_STEP", "settle_by_look", "check_by_look",
-           "translation_by_look", "look_choice", "LookChoice", "ranked_agreement", "look_figure"]
+__all__ = ["LOOK_BAR", "LOOK_SAME_DEG", "LOOK_SIGMAS", "PARALLAX_STEP", "TRANSLATION_APART_DEG", "settle_by_look",
+           "check_by_look", "translation_by_look", "look_choice", "LookChoice", "ranked_agreement", "look_figure"]
 
 
 #: the agreement of the images (:func:`catadioptric.photometric.rotation_agreement`, a correlation) by
@@ -46,6 +46,11 @@ LOOK_SIGMAS = 2.0
 #: agreements' own: every :data:`catadioptric.photometric.STEP`-th): its search's few hundred
 #: agreements at a quarter of the cost
 PARALLAX_STEP = 8
+
+#: :func:`translation_by_look` notes when the look's direction of the translation and the lines' lie
+#: more than this far apart (degrees): one of them is off by half of it or more (how far each has
+#: been off on rendered pairs: docs/relative_pose.md, "The translation's direction by the look")
+TRANSLATION_APART_DEG = 45.0
 
 
 def settle_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, None), *, bar: float = LOOK_BAR) -> bool:
@@ -236,11 +241,12 @@ def translation_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(N
     one distance ``D`` from B (:meth:`catadioptric.photometric.RotationAgreement.parallax`, every
     ``step``-th pixel of B). It is the images' own estimate of where B moved, beside the lines'
     (``res.pose.t``; at the benchmark's baselines of 2-8 m the lines' direction is often far off, or
-    reversed: docs/relative_pose.md, "The translation's direction"). What it finds goes to
+    reversed: docs/relative_pose.md, "The translation's direction by the look"). What it finds goes to
     ``pose.evidence["look_translation"]`` and is returned: ``direction`` (a unit vector of B's frame,
     ``x_B = R x_A + t``; None when no parallax agrees better than the scene at infinity),
     ``parallax`` (``|t| / D``), ``agreement`` (there) and ``agreement_at_infinity``, and
-    ``from_lines_deg``, the angle to the lines' translation (None without one). Returns None, and
+    ``from_lines_deg``, the angle to the lines' translation (None without one; more than
+    :data:`TRANSLATION_APART_DEG`: a note says so). Returns None, and
     records nothing, for a pose without ``evidence`` (the label path) or a rotation under which too
     little of B is seen in A."""
     from .photometric import RotationAgreement
@@ -263,6 +269,10 @@ def translation_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(N
            "agreement": float(agreement), "agreement_at_infinity": float(at_infinity), "from_lines_deg": apart,
            "step": int(step)}
     p.evidence["look_translation"] = out
+    if apart is not None and apart > TRANSLATION_APART_DEG:
+        p.notes = [*p.notes, f"the images' look puts the translation {apart:.0f} deg from the lines' (its direction "
+                             f"{np.round(direction, 3).tolist()}, evidence.look_translation): the translation's "
+                             f"direction is uncertain" + (", the lines' perhaps reversed" if apart > 135.0 else "")]
     return out
 
 

@@ -75,8 +75,9 @@ def relative_pose_from_images(image_a, image_b, cam_a, cam_b=None, *, detect_opt
     only its margin left ambiguous is decided by the images' look where it clearly prefers one of
     the answers the geometry keeps, and an answer the geometry decided is left ambiguous where the
     look plainly prefers another (:func:`catadioptric.look.settle_by_look`,
-    :func:`catadioptric.look.check_by_look`), and the translation's direction is estimated by the look too
-    (:func:`catadioptric.look.translation_by_look`, ``pose.evidence["look_translation"]``). ``calibration_rms_px``: the cameras' calibration rms
+    :func:`catadioptric.look.check_by_look`), and the translation's direction is estimated by the look
+    too (:func:`catadioptric.look.translation_by_look`, ``pose.evidence["look_translation"]``).
+    ``calibration_rms_px``: the cameras' calibration rms
     in pixels (see :func:`catadioptric.pose.relative_pose`; 0 for a rendered rig).
     For the lines of one planar target that a half-turn about its axes maps onto itself (a
     chessboard, masked), call it with ``look=False``, then
@@ -387,7 +388,8 @@ def image_pair_markdown(summary: dict, command: str, *, look_png: bool = False) 
     lt = (ev or {}).get("look_translation")
     if lt and lt["direction"] is not None:
         apart = "" if lt["from_lines_deg"] is None else f"; {lt['from_lines_deg']:.1f} deg from the lines' translation"
-        lines.append(f"- translation direction by the images' look: {np.round(np.asarray(lt['direction']), 4).tolist()} "
+        d = np.round(np.asarray(lt["direction"]), 4).tolist()
+        lines.append(f"- translation direction by the images' look: {d} "
                      f"(the scene at one distance D, |t| / D = {lt['parallax']:.2f}; agreement {lt['agreement']:.3f}, "
                      f"{lt['agreement_at_infinity']:.3f} at infinity{apart})")
     sigma = summary["sigma_px"]

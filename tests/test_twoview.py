@@ -243,12 +243,17 @@ def test_cli_writes_pose_report_and_overlay(street, tmp_path, capsys):
     assert f"against a bar of {ev['bar']:g}; without the lines' appearance, by the geometry alone" in text
     # the images' look as a reader sees it: B, and A turned by the answer and by another answer
     assert os.path.getsize(os.path.join(out, "look.png")) > 10000 and "![the images' look](look.png)" in text
-    # with --no-look, no figure of it either
+    lt = ev["look_translation"]
+    assert (f"- translation direction by the images' look: {np.round(np.asarray(lt['direction']), 4).tolist()} "
+            f"(the scene at one distance D, |t| / D = {lt['parallax']:.2f}") in text
+    # with --no-look, no figure of it either, nor its translation
     quiet = str(tmp_path / "no_look")
     assert main([*args[:-4], "--out", quiet, "--max-rotation", "60", "--no-look"]) == 0
     assert not os.path.exists(os.path.join(quiet, "look.png"))
     with open(os.path.join(quiet, "report.md")) as f:
         assert "look.png" not in f.read()
+    with open(os.path.join(quiet, "pose.json")) as f:
+        assert "look_translation" not in json.load(f)["evidence"]
     assert "look.png" not in capsys.readouterr().out
 
 
@@ -279,6 +284,41 @@ def test_the_look_figure_shows_the_answer_and_the_other_answer_that_agrees_best(
     one.pose = copy.copy(p)
     one.pose.candidates = p.candidates[:1]
     assert look_figure(one, images, cams) is None
+
+
+def test_the_looks_translation_is_where_the_images_agree_best_under_the_answer(street, with_prior_alone):
+    """:func:`catadioptric.look.translation_by_look`, as :func:`relative_pose_from_images` records it:
+    a unit direction whose parallax gives the agreement recorded, at least the agreement at infinity,
+    its angle to the lines' translation as recorded (a note when that angle is beyond
+    ``TRANSLATION_APART_DEG``, as when the lines' translation is reversed); nothing for a pose of the
+    label path."""
+    import copy
+
+    from catadioptric.look import PARALLAX_STEP, TRANSLATION_APART_DEG, translation_by_look
+    from catadioptric.photometric import RotationAgreement
+
+    _, a, b, _, _ = street
+    p = with_prior_alone.pose
+    lt = p.evidence["look_translation"]
+    d = np.asarray(lt["direction"])
+    assert abs(np.linalg.norm(d) - 1.0) < 1e-12 and lt["parallax"] > 0 and lt["step"] == PARALLAX_STEP
+    judge = RotationAgreement(a["beauty"], b["beauty"], a["camera"], a["camera"], step=PARALLAX_STEP)
+    assert judge.at(p.R, lt["parallax"] * d) == pytest.approx(lt["agreement"], abs=1e-12)
+    assert lt["agreement_at_infinity"] == judge.at(p.R) and lt["agreement"] >= lt["agreement_at_infinity"]
+    assert lt["from_lines_deg"] == pytest.approx(_angle(d, p.t), abs=1e-9)
+    apart = [n for n in p.notes if n.startswith("the images' look puts the translation")]
+    assert len(apart) == (lt["from_lines_deg"] > TRANSLATION_APART_DEG)
+    # the lines' translation reversed: the look's own direction is unchanged, and a note says so
+    rev = copy.copy(with_prior_alone)
+    rev.pose = copy.copy(p)
+    rev.pose.t, rev.pose.evidence, rev.pose.notes = -p.t, dict(p.evidence), []
+    back = translation_by_look(rev, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]))
+    assert back["direction"] == lt["direction"] and back["from_lines_deg"] == pytest.approx(180 - lt["from_lines_deg"])
+    assert (len(rev.pose.notes) == 1) == (back["from_lines_deg"] > TRANSLATION_APART_DEG)
+    label = copy.copy(with_prior_alone)
+    label.pose = copy.copy(p)
+    label.pose.evidence = None
+    assert translation_by_look(label, (a["beauty"], b["beauty"]), (a["camera"], a["camera"])) is None
 
 
 def test_cli_errors_are_one_line(street, tmp_path, capsys):

@@ -453,7 +453,8 @@ def aggregate_images(spec: dict, results: list, image_results: list) -> dict:
                     "translation_m": _q([x["translation_error_m"] for x in clear]),
                     "translation_direction_deg": _q([x["translation_direction_error_deg"] for x in clear]),
                     # the images' look's own direction (catadioptric.look.translation_by_look; older records lack it)
-                    "translation_direction_look_deg": _q([x.get("translation_direction_error_look_deg") for x in clear]),
+                    "translation_direction_look_deg": _q([x.get("translation_direction_error_look_deg")
+                                                          for x in clear]),
                     "over_10deg_unflagged": sum(x["rotation_error_deg"] > 10 for x in clear),
                     **_geometry_alone(ok), **_by_look(ok)}
             e["labels_rotation_deg"] = {
@@ -556,7 +557,7 @@ def images_markdown(spec: dict, agg_im: dict, overlays: dict, *, labels: bool = 
     L += ["### Pose from the images", "", "Errors over the answered (not ambiguous) pairs. *Translation direction*: "
           "the answer's own (from the lines); *the look*: the direction in which the images agree best under the "
           "answer's rotation with the scene at one distance (`pose.json`'s `evidence.look_translation`, "
-          "docs/relative_pose.md \"The translation's direction\").", "",
+          "docs/relative_pose.md \"The translation's direction by the look\").", "",
           md_table(["configuration / renderer", "prior (deg)", "pairs", "failed", "ambiguous",
                     "> 10 deg off, not flagged", "same families", "same families (3+ lines)",
                     "matched families all right",
