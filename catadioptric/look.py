@@ -235,7 +235,7 @@ def check_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, N
 
 
 def translation_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, None), *,
-                        step: int = PARALLAX_STEP) -> dict | None:
+                        step: int = PARALLAX_STEP, known: dict | None = None) -> dict | None:
     """The direction of the translation by the images' look under the answer's rotation: the
     parallax ``t / D`` where image B agrees best with image A under ``res.pose.R``, the scene taken at
     one distance ``D`` from B (:meth:`catadioptric.photometric.RotationAgreement.parallax`, every
@@ -248,19 +248,25 @@ def translation_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(N
     ``from_lines_deg``, the angle to the lines' translation (None without one; more than
     :data:`TRANSLATION_APART_DEG`: a note says so). Returns None, and
     records nothing, for a pose without ``evidence`` (the label path) or a rotation under which too
-    little of B is seen in A."""
+    little of B is seen in A. ``known``: what a call found for another pose of the same images,
+    masks and ``step`` with the same rotation (its returned dict): its search is not repeated, only
+    the angle to this pose's translation is measured (as the benchmark runs one pair under two priors)."""
     from .photometric import RotationAgreement
 
     p = res.pose
     if p.evidence is None:
         return None
-    judge = RotationAgreement(images[0], images[1], cams[0], cams[1], masks=masks, step=step)
-    at_infinity = judge.at(p.R)
-    agreement, parallax = judge.parallax(p.R)
-    if not np.isfinite(agreement):
-        return None
-    u = float(np.linalg.norm(parallax))
-    direction = parallax / u if u > 0 else None
+    if known is not None:
+        at_infinity, agreement, u = known["agreement_at_infinity"], known["agreement"], known["parallax"]
+        direction = None if known["direction"] is None else np.asarray(known["direction"], dtype=float)
+    else:
+        judge = RotationAgreement(images[0], images[1], cams[0], cams[1], masks=masks, step=step)
+        at_infinity = judge.at(p.R)
+        agreement, parallax = judge.parallax(p.R)
+        if not np.isfinite(agreement):
+            return None
+        u = float(np.linalg.norm(parallax))
+        direction = parallax / u if u > 0 else None
     apart = None
     if direction is not None and p.t is not None and np.linalg.norm(p.t) > 0:
         c = float(np.dot(direction, p.t) / np.linalg.norm(p.t))

@@ -319,6 +319,11 @@ def test_the_looks_translation_is_where_the_images_agree_best_under_the_answer(s
     back = translation_by_look(rev, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]))
     assert back["direction"] == lt["direction"] and back["from_lines_deg"] == pytest.approx(180 - lt["from_lines_deg"])
     assert (len(rev.pose.notes) == 1) == (back["from_lines_deg"] > TRANSLATION_APART_DEG)
+    # what an earlier call found under the same rotation: not searched again (no images needed), the same record
+    again = copy.copy(with_prior_alone)
+    again.pose = copy.copy(p)
+    again.pose.evidence, again.pose.notes = {}, []
+    assert translation_by_look(again, (None, None), (None, None), known=lt) == lt == again.pose.evidence["look_translation"]
     label = copy.copy(with_prior_alone)
     label.pose = copy.copy(p)
     label.pose.evidence = None

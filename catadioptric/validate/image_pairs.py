@@ -226,6 +226,7 @@ def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, steps
     centres = [rays_centre(c) for c in (va["camera"], vb["camera"])]
     last = None
     joint, look, threads = steps
+    looked = {}  # the look's translation under each rotation met (the priors often give the same answer)
     for prior in priors:
         rec = {"max_rotation_deg": prior}
         t1 = time.perf_counter()
@@ -238,7 +239,11 @@ def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, steps
             continue
         if look:
             settle_by_look(pair, (va["beauty"], vb["beauty"]), (va["camera"], vb["camera"]))
-            translation_by_look(pair, (va["beauty"], vb["beauty"]), (va["camera"], vb["camera"]))
+            key = pair.pose.R.tobytes()
+            found = translation_by_look(pair, (va["beauty"], vb["beauty"]), (va["camera"], vb["camera"]),
+                                        known=looked.get(key))
+            if found is not None:
+                looked[key] = found
         res, fmap = pair.pose, pair.family_map
         # the families found in both views at once are scored as the detected ones are
         fdets = pair.detections
