@@ -246,7 +246,10 @@ def translation_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(N
     ``x_B = R x_A + t``; None when no parallax agrees better than the scene at infinity),
     ``parallax`` (``|t| / D``), ``agreement`` (there) and ``agreement_at_infinity``, and
     ``from_lines_deg``, the angle to the lines' translation (None without one; more than
-    :data:`TRANSLATION_APART_DEG`: a note says so). Returns None, and
+    :data:`TRANSLATION_APART_DEG`: a note says so), ``sign_from_look``. A central model's direction
+    (``t`` a unit vector, its sign from the meeting rays' cheirality) more than 90 degrees from the
+    look's is turned round, with its covariance's cross terms and the answer's candidate, and a note
+    says so: the look decides its sign (``from_lines_deg`` is then the angle after). Returns None, and
     records nothing, for a pose without ``evidence`` (the label path) or a rotation under which too
     little of B is seen in A. ``known``: what a call found for another pose of the same images,
     masks and ``step`` with the same rotation (its returned dict): its search is not repeated, only
@@ -271,15 +274,44 @@ def translation_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(N
     if direction is not None and p.t is not None and np.linalg.norm(p.t) > 0:
         c = float(np.dot(direction, p.t) / np.linalg.norm(p.t))
         apart = float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
+    reversed_from = None
+    if apart is not None and apart > 90.0 and not p.metric and p.translation_observable:
+        # a central model's direction takes its sign from the meeting rays' cheirality, a vote of the few
+        # points where matched lines meet: the images' look, on the other side, decides it
+        _reverse_translation(p)
+        reversed_from, apart = apart, 180.0 - apart
     out = {"direction": None if direction is None else [float(x) for x in direction], "parallax": u,
            "agreement": float(agreement), "agreement_at_infinity": float(at_infinity), "from_lines_deg": apart,
-           "step": int(step)}
+           "sign_from_look": reversed_from is not None, "step": int(step)}
     p.evidence["look_translation"] = out
+    if reversed_from is not None:
+        p.notes = [*p.notes, f"the translation's sign taken from the images' look: the meeting rays' cheirality "
+                             f"put the direction {reversed_from:.0f} deg from the look's "
+                             f"({np.round(direction, 3).tolist()}, evidence.look_translation)"]
     if apart is not None and apart > TRANSLATION_APART_DEG:
         p.notes = [*p.notes, f"the images' look puts the translation {apart:.0f} deg from the lines' (its direction "
                              f"{np.round(direction, 3).tolist()}, evidence.look_translation): the translation's "
                              f"direction is uncertain" + (", the lines' perhaps reversed" if apart > 135.0 else "")]
     return out
+
+
+def _reverse_translation(p) -> None:
+    """``p.t`` (and its first candidate's, the answer) turned round, their covariances' cross terms
+    between rotation and translation with it."""
+    from dataclasses import replace
+
+    def turned(cov):
+        if cov is None:
+            return None
+        cov = np.array(cov, dtype=float)
+        cov[:3, 3:] *= -1.0
+        cov[3:, :3] *= -1.0
+        return cov
+
+    p.t, p.cov = -np.asarray(p.t, dtype=float), turned(p.cov)
+    c = p.candidates[0]
+    if c.t is not None:
+        p.candidates[0] = replace(c, t=-np.asarray(c.t, dtype=float), cov=turned(c.cov))
 
 
 @dataclass

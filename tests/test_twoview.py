@@ -319,6 +319,19 @@ def test_the_looks_translation_is_where_the_images_agree_best_under_the_answer(s
     back = translation_by_look(rev, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]))
     assert back["direction"] == lt["direction"] and back["from_lines_deg"] == pytest.approx(180 - lt["from_lines_deg"])
     assert (len(rev.pose.notes) == 1) == (back["from_lines_deg"] > TRANSLATION_APART_DEG)
+    assert p.metric and not lt["sign_from_look"] and back["sign_from_look"] is False  # a metric t is left as it is
+    # a central model's direction (its sign from a cheirality vote) reversed against the look: turned round
+    cen = copy.copy(with_prior_alone)
+    cen.pose = copy.copy(p)
+    cen.pose.metric, cen.pose.t, cen.pose.evidence, cen.pose.notes = False, -d, {}, []
+    cen.pose.candidates = [copy.copy(p.candidates[0]), *p.candidates[1:]]
+    cen.pose.candidates[0].t = -d
+    turned = translation_by_look(cen, (None, None), (None, None), known=lt)
+    assert turned["sign_from_look"] and turned["from_lines_deg"] == pytest.approx(0.0, abs=1e-6)
+    assert np.array_equal(cen.pose.t, d) and np.array_equal(cen.pose.candidates[0].t, d)
+    assert np.array_equal(cen.pose.cov[:3, 3:], -p.cov[:3, 3:]) and np.array_equal(cen.pose.cov[3:, 3:], p.cov[3:, 3:])
+    assert np.array_equal(cen.pose.cov[:3, :3], p.cov[:3, :3]) and cen.pose.candidates[0] is not p.candidates[0]
+    assert any(n.startswith("the translation's sign taken from the images' look") for n in cen.pose.notes)
     # what an earlier call found under the same rotation: not searched again (no images needed), the same record
     again = copy.copy(with_prior_alone)
     again.pose = copy.copy(p)
