@@ -248,8 +248,9 @@ def translation_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(N
     ``from_lines_deg``, the angle to the lines' translation (None without one; more than
     :data:`TRANSLATION_APART_DEG`: a note says so), ``sign_from_look``. A central model's direction
     (``t`` a unit vector, its sign from the meeting rays' cheirality) more than 90 degrees from the
-    look's is turned round, with its covariance's cross terms and the answer's candidate, and a note
-    says so: the look decides its sign (``from_lines_deg`` is then the angle after). Returns None, and
+    look's, in an answer that is not ambiguous, is turned round, with its covariance's cross terms and
+    the answer's candidate, and a note says so: the look decides its sign (``from_lines_deg`` is then
+    the angle after). Returns None, and
     records nothing, for a pose without ``evidence`` (the label path) or a rotation under which too
     little of B is seen in A. ``known``: what a call found for another pose of the same images,
     masks and ``step`` with the same rotation (its returned dict): its search is not repeated, only
@@ -275,9 +276,10 @@ def translation_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(N
         c = float(np.dot(direction, p.t) / np.linalg.norm(p.t))
         apart = float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
     reversed_from = None
-    if apart is not None and apart > 90.0 and not p.metric and p.translation_observable:
+    if apart is not None and apart > 90.0 and not p.metric and p.translation_observable and not p.ambiguous:
         # a central model's direction takes its sign from the meeting rays' cheirality, a vote of the few
-        # points where matched lines meet: the images' look, on the other side, decides it
+        # points where matched lines meet: the images' look, on the other side, decides it (under a decided
+        # answer's rotation only: under an ambiguous one's, which may be wrong, the look's direction is no guide)
         _reverse_translation(p)
         reversed_from, apart = apart, 180.0 - apart
     out = {"direction": None if direction is None else [float(x) for x in direction], "parallax": u,

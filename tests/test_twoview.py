@@ -326,6 +326,11 @@ def test_the_looks_translation_is_where_the_images_agree_best_under_the_answer(s
     cen.pose.metric, cen.pose.t, cen.pose.evidence, cen.pose.notes = False, -d, {}, []
     cen.pose.candidates = [copy.copy(p.candidates[0]), *p.candidates[1:]]
     cen.pose.candidates[0].t = -d
+    held = copy.copy(cen)
+    held.pose = copy.copy(cen.pose)
+    held.pose.ambiguous, held.pose.evidence = True, {}
+    assert not translation_by_look(held, (None, None), (None, None), known=lt)["sign_from_look"]  # ambiguous: left
+    assert np.array_equal(held.pose.t, -d)
     turned = translation_by_look(cen, (None, None), (None, None), known=lt)
     assert turned["sign_from_look"] and turned["from_lines_deg"] == pytest.approx(0.0, abs=1e-6)
     assert np.array_equal(cen.pose.t, d) and np.array_equal(cen.pose.candidates[0].t, d)
@@ -336,7 +341,8 @@ def test_the_looks_translation_is_where_the_images_agree_best_under_the_answer(s
     again = copy.copy(with_prior_alone)
     again.pose = copy.copy(p)
     again.pose.evidence, again.pose.notes = {}, []
-    assert translation_by_look(again, (None, None), (None, None), known=lt) == lt == again.pose.evidence["look_translation"]
+    same = translation_by_look(again, (None, None), (None, None), known=lt)
+    assert same == lt == again.pose.evidence["look_translation"]
     label = copy.copy(with_prior_alone)
     label.pose = copy.copy(p)
     label.pose.evidence = None
