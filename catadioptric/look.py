@@ -250,9 +250,8 @@ def translation_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(N
     (``t`` a unit vector, its sign from the meeting rays' cheirality) more than 90 degrees from the
     look's, in an answer that is not ambiguous, is turned round, with its covariance's cross terms and
     the answer's candidate, and a note says so: the look decides its sign (``from_lines_deg`` is then
-    the angle after). Returns None, and
-    records nothing, for a pose without ``evidence`` (the label path) or a rotation under which too
-    little of B is seen in A. ``known``: what a call found for another pose of the same images,
+    the angle after). Returns None, and records nothing, for a pose without ``evidence`` (the label
+    path) or a rotation under which too little of B is seen in A. ``known``: what a call found for another pose of the same images,
     masks and ``step`` with the same rotation (its returned dict): its search is not repeated, only
     the angle to this pose's translation is measured (as the benchmark runs one pair under two priors)."""
     from .photometric import RotationAgreement

@@ -232,3 +232,26 @@ def test_the_detectors_pixel_residuals(tiny, capsys):
     assert out.startswith("p00A: ") and "residual rms median" in out and "autocorrelation at lags 1..3:" in out
     assert main(["validate", "pixel-residuals", ds, "p09A"]) == 2
     assert "VIEW: expected views of the dataset (p00A, p00B), got ['p09A']" in capsys.readouterr().err
+
+
+def test_the_translation_columns_count_the_answered_runs(heldout):
+    """The images table's translation figures, aggregated from the committed held-out records: per
+    configuration and prior, the answered runs whose translation from the lines is more than 90
+    degrees off, and the median of the look's direction error over the same runs."""
+    from catadioptric.validate.benchmark import read_results
+    from catadioptric.validate.benchmark_report import aggregate_images
+
+    spec = json.load(open(os.path.join(VALIDATE, "relative_pose_heldout", "images.json")))["spec"]
+    results = list(read_results(heldout).values())
+    agg = aggregate_images(spec, [], results)
+    total = 0
+    for config in spec["configs"]:
+        for prior, key in ((None, "none"), (60.0, "60")):
+            runs = [r for res in results if res["config"] == config["name"] for r in res["runs"]
+                    if r["max_rotation_deg"] == prior and "error" not in r and not r["ambiguous"]]
+            q = agg[f"{config['name']}/all"]["priors"][key]
+            assert q["translation_reversed"] == sum(r["translation_direction_error_deg"] > 90.0 for r in runs)
+            assert q["translation_direction_look_deg"]["median"] == pytest.approx(
+                float(np.median([r["translation_direction_error_look_deg"] for r in runs])), abs=1e-12)
+            total += q["translation_reversed"] if key == "60" else 0
+    assert total == 18  # docs/relative_pose.md, "From the images alone"

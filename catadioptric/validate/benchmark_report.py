@@ -455,6 +455,8 @@ def aggregate_images(spec: dict, results: list, image_results: list) -> dict:
                     # the images' look's own direction (catadioptric.look.translation_by_look; older records lack it)
                     "translation_direction_look_deg": _q([x.get("translation_direction_error_look_deg")
                                                           for x in clear]),
+                    "translation_reversed": sum(x["translation_direction_error_deg"] is not None
+                                                and x["translation_direction_error_deg"] > 90.0 for x in clear),
                     "over_10deg_unflagged": sum(x["rotation_error_deg"] > 10 for x in clear),
                     **_geometry_alone(ok), **_by_look(ok)}
             e["labels_rotation_deg"] = {
@@ -553,16 +555,18 @@ def images_markdown(spec: dict, agg_im: dict, overlays: dict, *, labels: bool = 
                            for c in ("same_families", "same_families_3", "families_right", "same_families_direction",
                                      "families_right_direction")),
                          _fmt(q["rotation_deg"]), _fmt(q["translation_m"]), _fmt(q["translation_direction_deg"]),
-                         _fmt(q.get("translation_direction_look_deg"))])
+                         q.get("translation_reversed", "-"), _fmt(q.get("translation_direction_look_deg"))])
     L += ["### Pose from the images", "", "Errors over the answered (not ambiguous) pairs. *Translation direction*: "
-          "the answer's own (from the lines); *the look*: the direction in which the images agree best under the "
+          "the answer's own (from the lines), and how many of the answered pairs have it more than 90 degrees off; "
+          "*the look*: the direction in which the images agree best under the "
           "answer's rotation with the scene at one distance (`pose.json`'s `evidence.look_translation`, "
           "docs/relative_pose.md \"The translation's direction by the look\").", "",
           md_table(["configuration / renderer", "prior (deg)", "pairs", "failed", "ambiguous",
                     "> 10 deg off, not flagged", "same families", "same families (3+ lines)",
                     "matched families all right",
                     "same families (directions too)", "all right (directions too)", "rotation (deg)",
-                    "translation (m)", "translation direction (deg)", "translation direction, the look (deg)"],
+                    "translation (m)", "translation direction (deg)", "of those reversed (> 90 deg)",
+                    "translation direction, the look (deg)"],
                    rows), ""]
     rows = [[k, p, q["runs"] - q["failed"], q["runs"] - q["failed"] - q["ambiguous"], q["over_10deg_unflagged"],
              *(["-", "-"] if q.get("answered_by_look") is None else [q["answered_by_look"], q["over_10deg_by_look"]]),
