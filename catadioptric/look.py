@@ -246,11 +246,16 @@ def translation_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(N
     ``x_B = R x_A + t``; None when no parallax agrees better than the scene at infinity),
     ``parallax`` (``|t| / D``), ``agreement`` (there) and ``agreement_at_infinity``, and
     ``from_lines_deg``, the angle to the lines' translation (None without one; more than
-    :data:`TRANSLATION_APART_DEG`: a note says so), ``sign_from_look``. A central model's direction
-    (``t`` a unit vector, its sign from the meeting rays' cheirality) more than 90 degrees from the
-    look's, in an answer that is not ambiguous, is turned round, with its covariance's cross terms and
-    the answer's candidate, and a note says so: the look decides its sign (``from_lines_deg`` is then
-    the angle after). Returns None, and records nothing, for a pose without ``evidence`` (the label
+    :data:`TRANSLATION_APART_DEG`: a note says so), ``sign_from_look``, ``translation_from_look``.
+    In an answer that is not ambiguous, a translation more than 90 degrees from the look's is not
+    kept: a central model's direction (``t`` a unit vector, its sign from the meeting rays'
+    cheirality) is turned round, with its covariance's cross terms and the answer's candidate
+    (``sign_from_look``; ``from_lines_deg`` is then the angle after); a metric one (a non-central
+    rig's two-view fit, whose lines were matched under the reversed direction and fit it better than
+    a refinement started from the look's: docs/relative_pose.md) becomes the look's direction, a
+    unit vector (``pose.metric`` False, the covariance's translation rows NaN; the lines' fit stays
+    in ``candidates[0]``; ``translation_from_look``; ``from_lines_deg`` the angle to the lines'). A
+    note says which. Returns None, and records nothing, for a pose without ``evidence`` (the label
     path) or a rotation under which too little of B is seen in A. ``known``: what a call found for another pose of the same images,
     masks and ``step`` with the same rotation (its returned dict): its search is not repeated, only
     the angle to this pose's translation is measured (as the benchmark runs one pair under two priors)."""
@@ -274,26 +279,46 @@ def translation_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(N
     if direction is not None and p.t is not None and np.linalg.norm(p.t) > 0:
         c = float(np.dot(direction, p.t) / np.linalg.norm(p.t))
         apart = float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
-    reversed_from = None
-    if apart is not None and apart > 90.0 and not p.metric and p.translation_observable and not p.ambiguous:
-        # a central model's direction takes its sign from the meeting rays' cheirality, a vote of the few
-        # points where matched lines meet: the images' look, on the other side, decides it (under a decided
-        # answer's rotation only: under an ambiguous one's, which may be wrong, the look's direction is no guide)
-        _reverse_translation(p)
-        reversed_from, apart = apart, 180.0 - apart
+    reversed_from, replaced = None, False
+    if apart is not None and apart > 90.0 and p.translation_observable and not p.ambiguous:
+        # the lines' direction takes its sign from the meeting rays' cheirality, a vote of the few points where
+        # matched lines meet, and a metric fit keeps the lines matched under it: the images' look, on the other
+        # side, decides (under a decided answer's rotation only: under an ambiguous one's, which may be wrong,
+        # the look's direction is no guide)
+        if p.metric:
+            _translation_from_look(p, direction)
+            replaced = True
+        else:
+            _reverse_translation(p)
+            reversed_from, apart = apart, 180.0 - apart
     out = {"direction": None if direction is None else [float(x) for x in direction], "parallax": u,
            "agreement": float(agreement), "agreement_at_infinity": float(at_infinity), "from_lines_deg": apart,
-           "sign_from_look": reversed_from is not None, "step": int(step)}
+           "sign_from_look": reversed_from is not None, "translation_from_look": replaced, "step": int(step)}
     p.evidence["look_translation"] = out
     if reversed_from is not None:
         p.notes = [*p.notes, f"the translation's sign taken from the images' look: the meeting rays' cheirality "
                              f"put the direction {reversed_from:.0f} deg from the look's "
                              f"({np.round(direction, 3).tolist()}, evidence.look_translation)"]
-    if apart is not None and apart > TRANSLATION_APART_DEG:
+    if replaced:
+        p.notes = [*p.notes, f"the translation is the images' look's direction ({np.round(direction, 3).tolist()}, "
+                             f"a unit vector; evidence.look_translation): the lines' metric fit put it {apart:.0f} deg "
+                             f"from it, reversed, and its length with it (that fit: candidates[0])"]
+    elif apart is not None and apart > TRANSLATION_APART_DEG:
         p.notes = [*p.notes, f"the images' look puts the translation {apart:.0f} deg from the lines' (its direction "
                              f"{np.round(direction, 3).tolist()}, evidence.look_translation): the translation's "
                              f"direction is uncertain" + (", the lines' perhaps reversed" if apart > 135.0 else "")]
     return out
+
+
+def _translation_from_look(p, direction) -> None:
+    """``p.t`` made the look's ``direction`` (a unit vector: ``p.metric`` False), its covariance's
+    translation rows and columns unknown (NaN); the answer's candidate keeps the lines' fit."""
+    p.t, p.metric = np.array(direction, dtype=float), False
+    if p.cov is not None:
+        cov = np.array(p.cov, dtype=float)
+        cov[3:, :] = np.nan
+        cov[:, 3:] = np.nan
+        p.cov = cov
 
 
 def _reverse_translation(p) -> None:

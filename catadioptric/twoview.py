@@ -383,6 +383,10 @@ def image_pair_markdown(summary: dict, command: str, *, look_png: bool = False) 
         lines.append(f"- translation direction: {np.round(t / n if n > 0 else t, 4).tolist()}; its length is not "
                      f"observable from these images (std "
                      + (f"{t_std:.3g} m against a length of {n:.3g} m" if known(t_std) else "not estimated") + ")")
+    elif ((ev or {}).get("look_translation") or {}).get("translation_from_look"):
+        lines.append(f"- translation direction (the images' look; the lines' metric fit put it "
+                     f"{ev['look_translation']['from_lines_deg']:.1f} deg away, reversed): "
+                     f"{np.round(np.asarray(summary['t']), 4).tolist()}; its length not known")
     else:
         lines.append(f"- translation direction (central model): {np.round(np.asarray(summary['t']), 4).tolist()}")
     lt = (ev or {}).get("look_translation")

@@ -300,6 +300,7 @@ def test_the_looks_translation_is_where_the_images_agree_best_under_the_answer(s
 
     from catadioptric.look import PARALLAX_STEP, TRANSLATION_APART_DEG, translation_by_look
     from catadioptric.photometric import RotationAgreement
+    from catadioptric.twoview import image_pair_markdown, image_pair_summary
 
     _, a, b, _, _ = street
     p = with_prior_alone.pose
@@ -312,14 +313,28 @@ def test_the_looks_translation_is_where_the_images_agree_best_under_the_answer(s
     assert lt["from_lines_deg"] == pytest.approx(_angle(d, p.t), abs=1e-9)
     apart = [n for n in p.notes if n.startswith("the images' look puts the translation")]
     assert len(apart) == (lt["from_lines_deg"] > TRANSLATION_APART_DEG)
-    # the lines' translation reversed: the look's own direction is unchanged, and a note says so
+    # the lines' metric translation reversed: the look's own direction is unchanged; in an answer that is not
+    # ambiguous it becomes the translation, a unit vector, its deviation unknown, the lines' fit in the candidate
+    assert p.metric and not p.ambiguous and lt["from_lines_deg"] < 90 and not lt["translation_from_look"]
     rev = copy.copy(with_prior_alone)
     rev.pose = copy.copy(p)
     rev.pose.t, rev.pose.evidence, rev.pose.notes = -p.t, dict(p.evidence), []
+    amb = copy.copy(rev)
+    amb.pose = copy.copy(rev.pose)
+    amb.pose.ambiguous, amb.pose.evidence = True, {}
+    left = translation_by_look(amb, (None, None), (None, None), known=lt)
+    assert not left["translation_from_look"] and amb.pose.metric and np.array_equal(amb.pose.t, -p.t)  # ambiguous: left
+    assert len(amb.pose.notes) == 1 and amb.pose.notes[0].startswith("the images' look puts the translation")
     back = translation_by_look(rev, (a["beauty"], b["beauty"]), (a["camera"], a["camera"]))
     assert back["direction"] == lt["direction"] and back["from_lines_deg"] == pytest.approx(180 - lt["from_lines_deg"])
-    assert (len(rev.pose.notes) == 1) == (back["from_lines_deg"] > TRANSLATION_APART_DEG)
-    assert p.metric and not lt["sign_from_look"] and back["sign_from_look"] is False  # a metric t is left as it is
+    assert back["translation_from_look"] and not back["sign_from_look"] and not rev.pose.metric
+    assert np.array_equal(rev.pose.t, d) and rev.pose.candidates[0] is p.candidates[0] and p.metric
+    assert np.isnan(rev.pose.cov[3:]).all() and np.isnan(rev.pose.cov[:, 3:]).all() and np.isnan(rev.pose.translation_std)
+    assert np.array_equal(rev.pose.cov[:3, :3], p.cov[:3, :3]) and np.isfinite(p.cov).all()
+    assert len(rev.pose.notes) == 1 and rev.pose.notes[0].startswith("the translation is the images' look's direction")
+    text = image_pair_markdown(image_pair_summary(rev), "cmd")
+    assert (f"- translation direction (the images' look; the lines' metric fit put it {back['from_lines_deg']:.1f} deg "
+            f"away, reversed): {np.round(d, 4).tolist()}; its length not known") in text
     # a central model's direction (its sign from a cheirality vote) reversed against the look: turned round
     cen = copy.copy(with_prior_alone)
     cen.pose = copy.copy(p)
