@@ -155,6 +155,8 @@ def test_scored_against_the_labels(street):
     # pair of the benchmark's, held-out and blind sets (docs/relative_pose.md); a sign or frame turned
     # round would put it beyond 145
     assert run["translation_direction_error_look_deg"] < 45.0 and run["look_parallax"] > 0.0
+    # the look decided nothing of this answer's translation unless the lines' lay more than 90 deg from it
+    assert run["look_translation_taken"] == (None if run["translation_direction_error_deg"] < 90 else "direction")
 
 
 def test_the_mahalanobis_square_of_an_error():

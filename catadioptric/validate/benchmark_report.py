@@ -457,6 +457,8 @@ def aggregate_images(spec: dict, results: list, image_results: list) -> dict:
                                                           for x in clear]),
                     "translation_reversed": sum(x["translation_direction_error_deg"] is not None
                                                 and x["translation_direction_error_deg"] > 90.0 for x in clear),
+                    # the answered runs whose translation's sign or direction the look decided (older records lack it)
+                    "translation_from_look": sum(x.get("look_translation_taken") is not None for x in clear),
                     "over_10deg_unflagged": sum(x["rotation_error_deg"] > 10 for x in clear),
                     **_geometry_alone(ok), **_by_look(ok)}
             e["labels_rotation_deg"] = {
@@ -555,10 +557,13 @@ def images_markdown(spec: dict, agg_im: dict, overlays: dict, *, labels: bool = 
                            for c in ("same_families", "same_families_3", "families_right", "same_families_direction",
                                      "families_right_direction")),
                          _fmt(q["rotation_deg"]), _fmt(q["translation_m"]), _fmt(q["translation_direction_deg"]),
-                         q.get("translation_reversed", "-"), _fmt(q.get("translation_direction_look_deg"))])
-    L += ["### Pose from the images", "", "Errors over the answered (not ambiguous) pairs. *Translation direction*: "
-          "the answer's own (from the lines), and how many of the answered pairs have it more than 90 degrees off; "
-          "*the look*: the direction in which the images agree best under the "
+                         q.get("translation_reversed", "-"), q.get("translation_from_look", "-"),
+                         _fmt(q.get("translation_direction_look_deg"))])
+    L += ["### Pose from the images", "", "Errors over the answered (not ambiguous) pairs. *Translation (m)*: the "
+          "metric answers only. *Translation direction*: the answer's own, and how many of the answered pairs have it "
+          "more than 90 degrees off; *taken from the look*: in how many the look decided it (where the lines' lay "
+          "more than 90 degrees from the look's: a central direction turned round, a metric translation replaced by "
+          "the look's direction); *the look*: the direction in which the images agree best under the "
           "answer's rotation with the scene at one distance (`pose.json`'s `evidence.look_translation`, "
           "docs/relative_pose.md \"The translation's direction by the look\").", "",
           md_table(["configuration / renderer", "prior (deg)", "pairs", "failed", "ambiguous",
@@ -566,7 +571,7 @@ def images_markdown(spec: dict, agg_im: dict, overlays: dict, *, labels: bool = 
                     "matched families all right",
                     "same families (directions too)", "all right (directions too)", "rotation (deg)",
                     "translation (m)", "translation direction (deg)", "of those reversed (> 90 deg)",
-                    "translation direction, the look (deg)"],
+                    "taken from the look", "translation direction, the look (deg)"],
                    rows), ""]
     rows = [[k, p, q["runs"] - q["failed"], q["runs"] - q["failed"] - q["ambiguous"], q["over_10deg_unflagged"],
              *(["-", "-"] if q.get("answered_by_look") is None else [q["answered_by_look"], q["over_10deg_by_look"]]),

@@ -126,12 +126,17 @@ def _look_translation(res, t_true) -> dict:
     against the true one, ``t_true`` (B's frame, from A's centre to B's, as the central model's
     translation is scored): ``translation_direction_error_look_deg`` and the parallax it found
     (``look_parallax``, the baseline over the scene's distance); None where it was not measured or no
-    parallax agreed better than the scene at infinity."""
+    parallax agreed better than the scene at infinity; ``look_translation_taken``: what of the answer's
+    translation the look decided, ``"sign"`` (a central direction turned round), ``"direction"`` (a
+    metric one replaced by the look's) or None."""
     lt = (res.evidence or {}).get("look_translation")
+    taken = None if not lt else "sign" if lt["sign_from_look"] else \
+        "direction" if lt.get("translation_from_look") else None
     if not lt or lt["direction"] is None:
-        return {"translation_direction_error_look_deg": None, "look_parallax": None if not lt else lt["parallax"]}
+        return {"translation_direction_error_look_deg": None, "look_parallax": None if not lt else lt["parallax"],
+                "look_translation_taken": taken}
     return {"translation_direction_error_look_deg": angle_between_deg(np.asarray(lt["direction"]), t_true),
-            "look_parallax": lt["parallax"]}
+            "look_parallax": lt["parallax"], "look_translation_taken": taken}
 
 
 def _mahalanobis(res, R_gt, t_gt) -> dict:
