@@ -560,6 +560,27 @@ def test_a_rival_beyond_those_refined_is_refined_when_asked_as_it_would_have_bee
     assert np.array_equal(eager.rivals[k].cov, p.rivals[k].cov)
 
 
+def test_a_rival_that_matched_fewer_than_two_lines_is_refined_too(monkeypatch):
+    """A rival within the bar is refined however few lines its matching found: the labelled path gives
+    it a rotation from its families' directions (held out, ellipsoid p08 with the prior 60: the right
+    answer matched one line, was never refined, and the look that ranked it first could not take it)."""
+    from dataclasses import replace
+
+    import catadioptric.pose.matching as matching
+
+    every = matching.match_lines
+
+    def one_line(*args, **kwargs):
+        found = every(*args, **kwargs)
+        return replace(found, pairs=found.pairs[:1])
+
+    monkeypatch.setattr(matching, "match_lines", one_line)
+    p = _room_pair()
+    assert p.ambiguous and sorted(p.rivals) == [1, 2, 3] and len(p.rival_inputs) > 0
+    assert all(len(p.candidates[k].fit.pairs) == 1 and r.lines_matched <= 1 for k, r in p.rivals.items())
+    assert all(np.array_equal(p.candidates[k].R, r.R) for k, r in p.rivals.items())
+
+
 def test_the_look_refines_the_rival_it_ranks_first_and_scores_it_again(monkeypatch):
     """When the images' look ranks first a rival that was not refined with the answer, the rival is
     refined then, scored again at its refined rotation, and taken only if it still leads by the bar

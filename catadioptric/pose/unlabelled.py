@@ -192,12 +192,14 @@ def _refine_rivals(res, scored, bar: float, views: tuple, opts: PoseOptions) -> 
     matching's, so the ranking does not change) and ``res.rivals`` each refined pose. The rivals
     within the bar beyond those keep what refining them takes (``res.rival_inputs``), for a later cue
     that ranks one of them first (:meth:`~catadioptric.pose.labelled.RelativePose.refine_rival`).
-    Returns how many were refined."""
+    A rival is one however few lines its matching found: with fewer than two, the labelled path
+    gives it a rotation from its families' directions, as it gives the answer. Returns how many
+    were refined."""
     view_a, view_b, ea, eb = views
     best_score, done = scored[0][0], [res.R]
     for k in range(1, len(scored)):
         score, m, lm = scored[k]
-        if not np.isfinite(score) or score - best_score >= bar or len(lm.pairs) < 2:
+        if not np.isfinite(score) or score - best_score >= bar:
             continue
         if any(rotation_angle_deg(m.R @ R.T) <= SAME_ANSWER_DEG for R in done):
             continue
