@@ -256,9 +256,10 @@ def translation_by_look(res: ImagePairPose, images: tuple, cams: tuple, masks=(N
     unit vector (``pose.metric`` False, the covariance's translation rows NaN; the lines' fit stays
     in ``candidates[0]``; ``translation_from_look``; ``from_lines_deg`` the angle to the lines'). A
     note says which. Returns None, and records nothing, for a pose without ``evidence`` (the label
-    path) or a rotation under which too little of B is seen in A. ``known``: what a call found for another pose of the same images,
-    masks and ``step`` with the same rotation (its returned dict): its search is not repeated, only
-    the angle to this pose's translation is measured (as the benchmark runs one pair under two priors)."""
+    path) or a rotation under which too little of B is seen in A. ``known``: what a call found for
+    another pose of the same images, masks and ``step`` with the same rotation (its returned dict):
+    its search is not repeated, only the angle to this pose's translation is measured (as the
+    benchmark runs one pair under two priors)."""
     from .photometric import RotationAgreement
 
     p = res.pose

@@ -155,8 +155,32 @@ def test_scored_against_the_labels(street):
     # pair of the benchmark's, held-out and blind sets (docs/relative_pose.md); a sign or frame turned
     # round would put it beyond 145
     assert run["translation_direction_error_look_deg"] < 45.0 and run["look_parallax"] > 0.0
-    # the look decided nothing of this answer's translation unless the lines' lay more than 90 deg from it
-    assert run["look_translation_taken"] == (None if run["translation_direction_error_deg"] < 90 else "direction")
+    # a non-central rig's translation is the lines' metric one, or the look's direction where it replaced it
+    # (then scored as the look's is); never a sign turned round
+    taken = run["look_translation_taken"]
+    assert taken in (None, "direction") and (taken == "direction") == (not run["metric"])
+    if taken:
+        assert run["translation_direction_error_deg"] == pytest.approx(run["translation_direction_error_look_deg"])
+
+
+def test_the_record_says_what_of_the_translation_the_look_decided():
+    """``look_translation_taken``: ``"direction"`` where the look's direction replaced a metric
+    translation, ``"sign"`` where it turned a central one round, None otherwise or without a look;
+    the look's own error against the true direction beside it."""
+    from types import SimpleNamespace
+
+    from catadioptric.validate.image_pairs import _look_translation
+
+    def record(**flags):
+        lt = {"direction": [1.0, 0.0, 0.0], "parallax": 0.3, "sign_from_look": False, **flags}
+        return _look_translation(SimpleNamespace(evidence={"look_translation": lt}), np.array([0.0, 2.0, 0.0]))
+
+    assert record(translation_from_look=True)["look_translation_taken"] == "direction"
+    assert record(sign_from_look=True, translation_from_look=False)["look_translation_taken"] == "sign"
+    assert record(translation_from_look=False)["look_translation_taken"] is None
+    assert record()["look_translation_taken"] is None  # a record of the code before the metric replacement
+    assert record()["translation_direction_error_look_deg"] == pytest.approx(90.0)
+    assert _look_translation(SimpleNamespace(evidence=None), np.ones(3))["look_translation_taken"] is None
 
 
 def test_the_mahalanobis_square_of_an_error():
