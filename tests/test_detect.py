@@ -231,6 +231,29 @@ def test_evaluation_scores_the_truth_perfectly_and_a_shifted_copy_not_at_all(ren
     assert r["recovered_fraction"] < 0.3 and r["line_precision_labels"] < 0.4  # neighbours 3 px apart remain
 
 
+def test_lines_grouped_by_the_labels_are_each_familys_own(renders):
+    """The detection grouped by the labels (the grouping's ceiling): the same lines, each family
+    made only of lines of one labelled family (every line's own), its direction signed like the
+    true one; the lines left out are those no labelled line matches, or one alone of its family."""
+    from catadioptric.detect.evaluate import grouped_by_labels
+
+    v = Dataset(renders["povray"])[0]
+    det = detect_lines(v["beauty"], v["camera"])
+    g = grouped_by_labels(det, v)
+    assert g.uv is det.uv and len(g.family) == len(det)
+    F = {int(f["index"]): np.asarray(f["direction_M"]) for f in v["families"]}
+    r = evaluate_view(g, v, min_label_pixels=20)
+    assert len(g.families) >= 2 and len(r["families_detected"]) == len(g.families)
+    for k, (fam, m) in enumerate(zip(g.families, r["families_detected"])):
+        assert m["members_share"] == 1.0 and len(fam.lines) >= 2
+        assert fam.direction @ F[m["members_family"]] > 0
+        assert sorted(fam.lines) == fam.lines and np.flatnonzero(g.family == k).tolist() == fam.lines
+    assigned = int(np.sum(g.family >= 0))
+    assert r["matched_lines"] - len(F) <= assigned <= r["matched_lines"]
+    # the detector's own vote puts other lines in families too: the two groupings differ
+    assert [f.lines for f in g.families] != [f.lines for f in det.families]
+
+
 def test_a_missed_family_is_given_its_cause(renders):
     """Detections made from the labelled curves themselves, each spoiled for one family in one way:
     the family is reported missed with that cause, and nothing is missed when nothing is spoiled."""

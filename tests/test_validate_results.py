@@ -215,6 +215,52 @@ def test_the_family_bound(tiny, tmp_path, capsys):
     assert "--data: pair 0 of hyperboloid is not rendered" in capsys.readouterr().err
 
 
+def test_the_grouping_bound_through_the_pose(tiny, tmp_path, capsys):
+    """The image path with its detected lines grouped by the labels, on a rendered pair: each run an
+    answer (within 5 deg: families of the labels' own only) or the pose's own error (the small render
+    may leave a view one family of lines of 30 px); rows written, the table printed from them and
+    again from the file; the committed rows print the docs' figures; a grouping it does not know is
+    named."""
+    from catadioptric.validate.image_pairs import evaluate_image_pair
+
+    spec, data = tiny
+    rows_path = str(tmp_path / "grouped.json")
+    assert main(["validate", "family-bound", "--through-pose", "--spec", spec, "--data", data, "--configs", "central",
+                 "--pairs", "1", "--out", rows_path, "--no-progress"]) == 0
+    printed = capsys.readouterr().out
+    rows = json.load(open(rows_path))
+    assert [(r["config"], r["pair"]) for r in rows] == [("central", 0)]
+    runs = rows[0]["runs"]
+    assert [x["max_rotation_deg"] for x in runs] == [None, 60.0]
+    for x in runs:
+        if "error" in x:
+            assert x["error"].startswith("views: expected at least 2 families of two or more lines in each view")
+        elif x["rotation_error_deg"] < 5.0:
+            assert x["families_right"], x
+    cells = ["0 / 0" if "error" in x else f"{int(not x['ambiguous'])} / {int(x['same_families_3'])}" for x in runs]
+    assert f"| central | 1 | {cells[0]} | {cells[1]} |" in printed and printed.endswith(f"wrote {rows_path}\n")
+    assert main(["validate", "family-bound", "--from-json", rows_path]) == 0
+    assert capsys.readouterr().out == printed.replace(f"wrote {rows_path}\n", "")
+    for name, last in (("relative_pose", "| all | 100 | 82 / 69 | 99 / 82 |"),
+                       ("relative_pose_heldout", "| all | 100 | 80 / 62 | 98 / 74 |")):
+        assert main(["validate", "family-bound", "--from-json", os.path.join(VALIDATE, name, "grouping_bound.json")]) == 0
+        assert capsys.readouterr().out.strip().splitlines()[-1] == last
+    # the pair's families are the labels' (every label family with two detected lines or more)
+    from catadioptric import Dataset
+    from catadioptric.detect import detect_lines
+    from catadioptric.detect.evaluate import grouped_by_labels
+
+    folder = os.path.join(data, "datasets", "central_mitsuba")
+    res = evaluate_image_pair(folder, ("p00A", "p00B"), priors=(60.0,), grouping="labels")
+    views = [Dataset(folder)[n] for n in ("p00A", "p00B")]
+    own = [grouped_by_labels(detect_lines(v["beauty"], v["camera"]), v) for v in views]
+    assert res["grouping"] == "labels"
+    assert [d["families_detected"] for d in res["detection"]] == [len(g.families) for g in own]
+    assert [d["family_recall"] for d in res["detection"]] != [None, None]
+    with pytest.raises(CatadioptricError, match=r"^grouping: expected 'detector' or 'labels', got 'oracle'$"):
+        evaluate_image_pair(folder, ("p00A", "p00B"), grouping="oracle")
+
+
 def test_a_subset_renders_and_evaluates_its_pairs_only(tiny):
     spec, data = tiny
     assert sorted(os.listdir(os.path.join(data, "datasets"))) == ["central_mitsuba"]

@@ -32,12 +32,16 @@ For a dataset view (:class:`catadioptric.DatasetView`): each labelled line's vis
   than two of its detected lines in a family), ``"direction off"`` (a detected family is this
   family by its lines, ``members_family``, but its direction is beyond the tolerance),
   ``"blended"`` (its lines went to families that are other families, or none, by their lines).
+* **Grouped by the labels** (:func:`grouped_by_labels`): the detection with its families made
+  from the labels instead of its vote, each detected line in the family of the labelled line it
+  matches (as line precision matches them), unmatched lines in none, each family's direction
+  fitted on its lines' planes: the grouping's ceiling for those lines.
 """
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["label_curves", "visible_curves", "evaluate_view"]
+__all__ = ["label_curves", "visible_curves", "evaluate_view", "grouped_by_labels"]
 
 
 def label_curves(view, min_points: int = 2) -> list[dict]:
@@ -217,3 +221,31 @@ def _missed(present, long_, truth, match, det, det_match, matched_true) -> list[
         out.append({"family": int(f), "lines": len(segs), "lines_detected": detected,
                     "went_to": {str(k): n for k, n in sorted(went.items())}, "cause": cause})
     return out
+
+
+def grouped_by_labels(det, view, *, tolerance: float = 1.5, match_fraction: float = 0.5, min_lines: int = 2):
+    """A copy of the detection ``det`` grouped by the labels of ``view`` (module docstring): every
+    true family with at least ``min_lines`` matched detected lines becomes a family of those lines
+    (its direction fitted on their planes from the true one's, signed like it); every other line
+    is unassigned. Its families are the view's in the order of their indices."""
+    from dataclasses import replace
+
+    from .families import Family, refine_direction
+
+    truth = label_curves(view)
+    match, _ = _match_lines([np.asarray(u) for u in det.uv], truth, tolerance, match_fraction)
+    true_dirs = {int(f["index"]): np.asarray(f["direction_M"], float) for f in view["families"]}
+    by_family = {}
+    for i, k in enumerate(match):
+        if k >= 0:
+            by_family.setdefault(int(truth[k]["family"]), []).append(i)
+    family = np.full(len(det.uv), -1, dtype=np.int64)
+    families = []
+    for f, lines in sorted(by_family.items()):
+        if len(lines) < min_lines:
+            continue
+        s, cov = refine_direction(det.normal, det.normal_cov, np.array(lines), true_dirs[f])
+        family[lines] = len(families)
+        families.append(Family(direction=s, cov=cov, lines=lines,
+                               pixels=int(sum(len(det.uv[i]) for i in lines))))
+    return replace(det, family=family, families=families)

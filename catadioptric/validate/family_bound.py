@@ -34,6 +34,14 @@ Writes the rows (one per pair) to ``--out`` (JSON, written atomically) and print
 ``--from-json`` it prints them from rows written before. Labels and geometry only (no detection):
 a few seconds per view. Needs the benchmark's rendered datasets (``catadioptric validate benchmark
 ... --data DIR`` renders them).
+
+**Through the pose** (``--through-pose``): the image path itself on every pair, its detected lines
+grouped by the labels instead of its one-view vote (:func:`catadioptric.detect.evaluate.grouped_by_labels`;
+:func:`catadioptric.validate.image_pairs.evaluate_image_pair` with ``grouping="labels"``; the rest of
+the path as it is, the families found in both views at once included), each motion prior as the
+benchmark runs it: how many pairs then have the same families of three lines or more as the labels
+(``same_families_3``): the ceiling of any one-view grouping of the lines the detector finds, with the
+matching and the fits as they are. Seconds per pair (``--workers`` share them).
 """
 from __future__ import annotations
 
@@ -44,8 +52,8 @@ import numpy as np
 
 from .._checks import CatadioptricError
 
-__all__ = ["VoteBars", "view_lines", "pair_row", "family_bound", "bound_markdown",
-           "register_family_bound"]
+__all__ = ["VoteBars", "view_lines", "pair_row", "family_bound", "bound_markdown", "grouping_bound",
+           "grouping_markdown", "register_family_bound"]
 
 
 class VoteBars:
@@ -263,6 +271,102 @@ def bound_markdown(rows: list[dict]) -> str:
     return "\n".join(L) + "\n"
 
 
+def _grouped_row(task) -> dict:
+    """One pair through the pose with its lines grouped by the labels (:func:`grouping_bound`)."""
+    from .image_pairs import evaluate_image_pair
+
+    (config, index, renderer, names), folder, priors = task
+    res = evaluate_image_pair(folder, names, priors=priors, grouping="labels", threads=1)
+    L3 = res["families_label_3"]
+    runs = []
+    for r in res["runs"]:
+        if "error" in r:
+            runs.append({"max_rotation_deg": r["max_rotation_deg"], "error": r["error"]})
+            continue
+        runs.append({k: r[k] for k in ("max_rotation_deg", "ambiguous", "rotation_error_deg", "same_families_3",
+                                      "families_right")}
+                    | {"lost_3": [x["cause"] for x in r["families_lost"] if x["family"] in L3]})
+    return {"config": config, "pair": index, "renderer": renderer, "families_label_3": L3, "runs": runs}
+
+
+def grouping_bound(spec: dict, data: str, *, configs=None, pairs: int | None = None, workers: int = 1,
+                   progress: bool = True) -> list[dict]:
+    """A row per pair of the spec's configurations (``configs``: those named, default all; their
+    first ``pairs``) from the rendered datasets in ``data``: the image path with its detected lines
+    grouped by the labels (module docstring, "Through the pose"), for the benchmark's priors (none,
+    and the spec's ``images.max_rotation_deg``). Per prior: ``ambiguous``, ``rotation_error_deg``,
+    ``same_families_3``, ``families_right`` and ``lost_3`` (where each family of three lines or more
+    not matched right was lost, as the benchmark's ``families_lost`` says)."""
+    from .benchmark import dataset_folder
+    from .benchmark_spec import pairs_of
+
+    names = [c["name"] for c in spec["configs"]]
+    unknown = sorted(set(configs or ()) - set(names))
+    if unknown:
+        raise CatadioptricError(f"--configs: expected names of the spec's configurations ({', '.join(names)}), got "
+                                f"{unknown}")
+    priors = (None, *spec["images"]["max_rotation_deg"])
+    tasks = []
+    for c in spec["configs"]:
+        if configs and c["name"] not in configs:
+            continue
+        for p in pairs_of(spec, c)[:pairs]:
+            folder = dataset_folder(data, c["name"], p.renderer)
+            if not all(os.path.isdir(os.path.join(folder, n)) for n in p.names):
+                raise CatadioptricError(f"--data: pair {p.index} of {c['name']} is not rendered in {folder!r}; "
+                                        "render the benchmark first (catadioptric validate benchmark --data DIR)")
+            tasks.append(((c["name"], p.index, p.renderer, list(p.names)), folder, priors))
+    bar = None
+    if progress and tasks:
+        import sys
+
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(tasks), unit="pair", desc="through the pose", file=sys.stderr, dynamic_ncols=True)
+    rows = []
+    try:
+        if workers <= 1 or len(tasks) <= 1:
+            results = map(_grouped_row, tasks)
+        else:
+            from .._pool import imap_spawn
+
+            results = imap_spawn(_grouped_row, tasks, workers)
+        for row in results:
+            rows.append(row)
+            if bar is not None:
+                bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+    order = {(c, i): k for k, (c, i) in enumerate((t[0][0], t[0][1]) for t in tasks)}
+    return sorted(rows, key=lambda r: order[(r["config"], r["pair"])])
+
+
+def grouping_markdown(rows: list[dict]) -> str:
+    """The table ``--through-pose`` prints: per configuration and prior, the pairs answered and
+    those with the same families of three lines or more as the labels."""
+    if not rows:
+        raise CatadioptricError("rows: expected at least one pair")
+    names = list(dict.fromkeys(r["config"] for r in rows))
+    priors = [run["max_rotation_deg"] for run in rows[0]["runs"]]
+    head = " | ".join(f"{'no prior' if p is None else f'prior {p:g}'}: answered / same families of 3+"
+                      for p in priors)
+    L = ["The image path with its detected lines grouped by the labels (the grouping's ceiling):", "",
+         f"| configuration | pairs | {head} |", "|---|---|" + "---|" * len(priors)]
+    for name in [*names, None]:
+        cell = [r for r in rows if name is None or r["config"] == name]
+        cols = []
+        for k in range(len(priors)):
+            runs = [r["runs"][k] for r in cell if "error" not in r["runs"][k]]
+            cols.append(f"{sum(not x['ambiguous'] for x in runs)} / {sum(bool(x['same_families_3']) for x in runs)}")
+        L.append(f"| {name or 'all'} | {len(cell)} | " + " | ".join(cols) + " |")
+    return "\n".join(L) + "\n"
+
+
+def _markdown(rows) -> str:
+    return grouping_markdown(rows) if rows and "runs" in rows[0] else bound_markdown(rows)
+
+
 def _run(args) -> int:
     from .._io import atomic_write_json
     from ..cliargs import check_out_dir
@@ -274,10 +378,10 @@ def _run(args) -> int:
                 rows = json.load(f)
         except (OSError, ValueError) as exc:
             raise CatadioptricError(f"--from-json: {args.from_json!r} is not a readable JSON file ({exc})") from None
-        if not isinstance(rows, list) or not rows or not all(isinstance(r, dict) and "families_label" in r
-                                                              for r in rows):
+        if not isinstance(rows, list) or not rows or not all(
+                isinstance(r, dict) and ("families_label" in r or "runs" in r) for r in rows):
             raise CatadioptricError(f"--from-json: expected the rows family-bound --out writes, got {args.from_json!r}")
-        print(bound_markdown(rows), end="")
+        print(_markdown(rows), end="")
         return 0
     if not args.out:
         raise CatadioptricError("--out: expected a file for the rows (or --from-json FILE to print written ones)")
@@ -286,11 +390,16 @@ def _run(args) -> int:
         spec = load_benchmark_spec(args.spec or os.path.join("validate", "relative_pose.toml"))
     except CatadioptricError as exc:
         raise CatadioptricError(f"--spec: {exc}") from None
-    bars = VoteBars(one_view=args.max_log_nfa, joint=args.joint_max_log_nfa)
-    rows = family_bound(spec, args.data, configs=args.configs.split(",") if args.configs else None,
-                        pairs=args.pairs, sigma=args.sigma, need=args.lines, systematic_px=args.systematic, bars=bars)
+    configs = args.configs.split(",") if args.configs else None
+    if args.through_pose:
+        rows = grouping_bound(spec, args.data, configs=configs, pairs=args.pairs, workers=args.workers,
+                              progress=not args.no_progress)
+    else:
+        bars = VoteBars(one_view=args.max_log_nfa, joint=args.joint_max_log_nfa)
+        rows = family_bound(spec, args.data, configs=configs, pairs=args.pairs, sigma=args.sigma, need=args.lines,
+                            systematic_px=args.systematic, bars=bars)
     atomic_write_json(args.out, rows)
-    print(bound_markdown(rows), end="")
+    print(_markdown(rows), end="")
     print(f"wrote {args.out}")
     return 0
 
@@ -319,4 +428,9 @@ def register_family_bound(vs) -> None:
     p.add_argument("--joint-max-log-nfa", type=float, default=-6.0, help="the joint vote's bar (the detector's: -6)")
     p.add_argument("--systematic", type=nonnegative_float, default=0.0, metavar="PX",
                    help="pixel error that does not average out along a line (the detector's: 0.15; default 0)")
+    p.add_argument("--through-pose", action="store_true",
+                   help="run the image path on every pair with its detected lines grouped by the labels: the "
+                        "ceiling of any grouping of them (seconds per pair)")
+    p.add_argument("--workers", type=positive_int, default=1, help="processes for --through-pose (default 1)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=_run)

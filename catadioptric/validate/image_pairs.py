@@ -187,22 +187,32 @@ def _lost(scores, label_families, rows) -> list[dict]:
 
 
 def evaluate_image_pair(dataset, names, *, priors=(None, 60.0), min_pixels: int = 30, detect_options=None,
-                        overlay: str | None = None, joint: bool = True, look: bool = True, threads: int = 2) -> dict:
+                        overlay: str | None = None, joint: bool = True, look: bool = True, threads: int = 2,
+                        grouping: str = "detector") -> dict:
     """Score the image-only path on the view pair ``names = (A, B)`` of ``dataset`` (a folder or a
     :class:`catadioptric.Dataset`) for each motion prior. ``overlay``: a PNG path for the pair's
     overlay (the answer of the last prior). ``joint``: see
     :func:`catadioptric.twoview.pose_from_detections`; ``look``: an answer left ambiguous by its
     margin decided by the images' look where it can be (:func:`catadioptric.look.settle_by_look`);
-    ``threads``: as :func:`catadioptric.pose.relative_pose`'s. Returns a JSON-ready dict."""
+    ``threads``: as :func:`catadioptric.pose.relative_pose`'s. ``grouping``: ``"detector"`` (the
+    detector's families) or ``"labels"`` (the detected lines grouped by the labels instead of the
+    detector's vote, :func:`catadioptric.detect.evaluate.grouped_by_labels`; the rest of the path as
+    it is, the families found in both views at once included: the one-view grouping's ceiling).
+    Returns a JSON-ready dict (with ``"grouping": "labels"`` when so grouped)."""
     from threadpoolctl import threadpool_limits
 
+    if grouping not in ("detector", "labels"):
+        raise CatadioptricError(f"grouping: expected 'detector' or 'labels', got {grouping!r}")
     with threadpool_limits(1):
-        return _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, (joint, look, threads))
+        out = _evaluate(dataset, names, priors, min_pixels, detect_options, overlay,
+                        (joint, look, threads, grouping == "labels"))
+    return out if grouping == "detector" else out | {"grouping": grouping}
 
 
 def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, steps):
     from ..dataset import Dataset
     from ..detect import detect_lines, evaluate_view
+    from ..detect.evaluate import grouped_by_labels
     from ..pose import rotation_angle_deg
     from ..pose.families import rays_centre
     from ..look import settle_by_look, translation_by_look
@@ -214,8 +224,11 @@ def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, steps
     va, vb = ds[names[0]], ds[names[1]]
     R_gt = vb["pose"].R @ va["pose"].R.T
     t_gt = vb["pose"].t - R_gt @ va["pose"].t
+    joint, look, threads, by_labels = steps
     t0 = time.perf_counter()
     dets = [detect_lines(v["beauty"], v["camera"], **(detect_options or {})) for v in (va, vb)]
+    if by_labels:
+        dets = [grouped_by_labels(d, v) for d, v in zip(dets, (va, vb))]
     t_detect = time.perf_counter() - t0
     scores = [evaluate_view(d, v, min_label_pixels=min_pixels) for d, v in zip(dets, (va, vb))]
     label_families = sorted(set(scores[0]["families_true"]) & set(scores[1]["families_true"]))
@@ -230,7 +243,6 @@ def _evaluate(dataset, names, priors, min_pixels, detect_options, overlay, steps
            "families_label": label_families, "families_label_3": label_families_3, "runs": []}
     centres = [rays_centre(c) for c in (va["camera"], vb["camera"])]
     last = None
-    joint, look, threads = steps
     looked = {}  # the look's translation under each rotation met (the priors often give the same answer)
     for prior in priors:
         rec = {"max_rotation_deg": prior}
