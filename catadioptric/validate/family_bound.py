@@ -204,6 +204,17 @@ def family_bound(spec: dict, data: str, *, configs=None, pairs: int | None = Non
                  need: int = 2, systematic_px: float = 0.0, bars: VoteBars | None = None) -> list[dict]:
     """A row per pair (:func:`pair_row`) of the spec's configurations (``configs``: those named,
     default all), its first ``pairs`` pairs (default all), from the rendered datasets in ``data``."""
+    rows = []
+    for name, p, views in _rendered_pairs(spec, data, configs, pairs):
+        rows.append({"config": name, "pair": p.index, "renderer": p.renderer,
+                     **pair_row(views, spec["min_pixels"], sigma, need, systematic_px=systematic_px, bars=bars)})
+    return rows
+
+
+def _rendered_pairs(spec: dict, data: str, configs, pairs):
+    """``(configuration name, pair, its two dataset views)`` for the spec's configurations named in
+    ``configs`` (all when None), their first ``pairs``; a configuration the spec lacks or a pair not
+    rendered in ``data`` is an error naming it."""
     from ..dataset import Dataset
     from .benchmark import dataset_folder
     from .benchmark_spec import pairs_of
@@ -213,7 +224,6 @@ def family_bound(spec: dict, data: str, *, configs=None, pairs: int | None = Non
     if unknown:
         raise CatadioptricError(f"--configs: expected names of the spec's configurations ({', '.join(names)}), got "
                                 f"{unknown}")
-    rows = []
     for c in spec["configs"]:
         if configs and c["name"] not in configs:
             continue
@@ -225,9 +235,7 @@ def family_bound(spec: dict, data: str, *, configs=None, pairs: int | None = Non
             except (CatadioptricError, KeyError) as exc:
                 raise CatadioptricError(f"--data: pair {p.index} of {c['name']} is not rendered in {folder!r} ({exc}); "
                                         "render the benchmark first (catadioptric validate benchmark --data DIR)") from None
-            rows.append({"config": c["name"], "pair": p.index, "renderer": p.renderer,
-                         **pair_row(views, spec["min_pixels"], sigma, need, systematic_px=systematic_px, bars=bars)})
-    return rows
+            yield c["name"], p, views
 
 
 def bound_markdown(rows: list[dict]) -> str:
@@ -298,24 +306,10 @@ def grouping_bound(spec: dict, data: str, *, configs=None, pairs: int | None = N
     ``same_families_3``, ``families_right`` and ``lost_3`` (where each family of three lines or more
     not matched right was lost, as the benchmark's ``families_lost`` says)."""
     from .benchmark import dataset_folder
-    from .benchmark_spec import pairs_of
 
-    names = [c["name"] for c in spec["configs"]]
-    unknown = sorted(set(configs or ()) - set(names))
-    if unknown:
-        raise CatadioptricError(f"--configs: expected names of the spec's configurations ({', '.join(names)}), got "
-                                f"{unknown}")
     priors = (None, *spec["images"]["max_rotation_deg"])
-    tasks = []
-    for c in spec["configs"]:
-        if configs and c["name"] not in configs:
-            continue
-        for p in pairs_of(spec, c)[:pairs]:
-            folder = dataset_folder(data, c["name"], p.renderer)
-            if not all(os.path.isdir(os.path.join(folder, n)) for n in p.names):
-                raise CatadioptricError(f"--data: pair {p.index} of {c['name']} is not rendered in {folder!r}; "
-                                        "render the benchmark first (catadioptric validate benchmark --data DIR)")
-            tasks.append(((c["name"], p.index, p.renderer, list(p.names)), folder, priors))
+    tasks = [((name, p.index, p.renderer, list(p.names)), dataset_folder(data, name, p.renderer), priors)
+             for name, p, _ in _rendered_pairs(spec, data, configs, pairs)]
     bar = None
     if progress and tasks:
         import sys
