@@ -502,7 +502,7 @@ def look_figure(res: ImagePairPose, images: tuple, cams: tuple, masks=(None, Non
 def _take_rival(res: ImagePairPose, k: int):
     """``res`` made to hold its pose's refined rival ``k`` (``pose.rivals[k]``) as the answer: its
     candidate first, the geometry's margin of that answer over the next different one, the first
-    answer's evidence and notes before the rival's own. Returns the new pose."""
+    answer's evidence and notes before the rival's own (a note both give, once). Returns the new pose."""
     from .pose import rotation_angle_deg
     from .pose.labelled import SAME_ANSWER_DEG
 
@@ -511,6 +511,6 @@ def _take_rival(res: ImagePairPose, k: int):
              and rotation_angle_deg(c.R @ p.candidates[k].R.T) > SAME_ANSWER_DEG]
     new.candidates = [p.candidates[k], *[c for j, c in enumerate(p.candidates) if j != k]]
     new.margin = float(min(costs) - p.candidates[k].cost)
-    new.evidence, new.notes = p.evidence, [*p.notes, *new.notes]
+    new.evidence, new.notes = p.evidence, list(dict.fromkeys([*p.notes, *new.notes]))  # a note both fits give, once
     res.hold(new)
     return new

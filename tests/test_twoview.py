@@ -646,6 +646,41 @@ def test_the_look_refines_the_rival_it_ranks_first_and_scores_it_again(monkeypat
             assert res.family_map and set(res.family_map) <= {10, 11, 12}
 
 
+def test_a_rival_the_look_takes_says_each_note_once(monkeypatch):
+    """The answer the look takes from the rivals carries the first answer's notes, then its own: a
+    note both fits give (here: no translation estimated, every matching cut to one line) once."""
+    import copy
+    from dataclasses import replace
+
+    import catadioptric.pose.matching as matching
+    from catadioptric.photometric import RotationAgreement
+    from catadioptric.look import settle_by_look
+    from catadioptric.twoview import ImagePairPose
+
+    every = matching.match_lines
+
+    def one_line(*args, **kwargs):
+        found = every(*args, **kwargs)
+        return replace(found, pairs=found.pairs[:1])
+
+    monkeypatch.setattr(matching, "match_lines", one_line)
+    pose = _room_pair()
+    k = min(pose.rivals)
+    shared = [n for n in pose.notes if n in pose.rivals[k].notes]
+    assert shared, (pose.notes, pose.rivals[k].notes)
+    R_k = pose.candidates[k].R.copy()
+    monkeypatch.setattr(RotationAgreement, "__init__", lambda self, *args, **kwargs: None)
+    monkeypatch.setattr(RotationAgreement, "__call__",
+                        lambda self, rotations: np.array([0.9 if rotation_angle_deg(R @ R_k.T) < 5.0 else 0.3
+                                                          for R in rotations]))
+    monkeypatch.setattr(RotationAgreement, "best_near", lambda self, R, **kw: (R, 0.9))
+    monkeypatch.setattr(RotationAgreement, "agreement", lambda self, R: (0.9, 0.05))
+    res = ImagePairPose(copy.deepcopy(pose), (None, None), {})
+    assert settle_by_look(res, (None, None), (None, None)) and res.pose.evidence["look"]["best"] == k
+    assert len(res.pose.notes) == len(set(res.pose.notes)) and all(n in res.pose.notes for n in shared)
+    assert [n for n in res.pose.notes if n in pose.notes] == pose.notes  # the first answer's, in their order
+
+
 # --------------------------------------------------------------------------- issue 39, item 2
 def _unlabelled_pair():
     from test_relative_pose import _pair
