@@ -537,6 +537,21 @@ def test_the_images_look_decides_an_answer_left_ambiguous_by_its_margin(street, 
     assert other.pose.ambiguous and "look" not in other.pose.evidence
 
 
+def _one_line_matched(monkeypatch):
+    """Every assignment's line matching cut to its first matched line."""
+    from dataclasses import replace
+
+    import catadioptric.pose.matching as matching
+
+    every = matching.match_lines
+
+    def one_line(*args, **kwargs):
+        found = every(*args, **kwargs)
+        return replace(found, pairs=found.pairs[:1])
+
+    monkeypatch.setattr(matching, "match_lines", one_line)
+
+
 def _room_pair(refined_rivals=None, monkeypatch=None):
     """A camera that moved in a room (tests/test_pure_rotation.py's central Mei model, 0.5 px), its
     lines unlabelled (families 0-2 in A, 10-12 in B): the pose with a matching bar out of reach, so
@@ -588,17 +603,7 @@ def test_a_rival_that_matched_fewer_than_two_lines_is_refined_too(monkeypatch):
     """A rival within the bar is refined however few lines its matching found: the labelled path gives
     it a rotation from its families' directions (held out, ellipsoid p08 with the prior 60: the right
     answer matched one line, was never refined, and the look that ranked it first could not take it)."""
-    from dataclasses import replace
-
-    import catadioptric.pose.matching as matching
-
-    every = matching.match_lines
-
-    def one_line(*args, **kwargs):
-        found = every(*args, **kwargs)
-        return replace(found, pairs=found.pairs[:1])
-
-    monkeypatch.setattr(matching, "match_lines", one_line)
+    _one_line_matched(monkeypatch)
     p = _room_pair()
     assert p.ambiguous and sorted(p.rivals) == [1, 2, 3] and len(p.rival_inputs) > 0
     assert all(len(p.candidates[k].fit.pairs) == 1 and r.lines_matched <= 1 for k, r in p.rivals.items())
@@ -650,20 +655,12 @@ def test_a_rival_the_look_takes_says_each_note_once(monkeypatch):
     """The answer the look takes from the rivals carries the first answer's notes, then its own: a
     note both fits give (here: no translation estimated, every matching cut to one line) once."""
     import copy
-    from dataclasses import replace
 
-    import catadioptric.pose.matching as matching
     from catadioptric.photometric import RotationAgreement
     from catadioptric.look import settle_by_look
     from catadioptric.twoview import ImagePairPose
 
-    every = matching.match_lines
-
-    def one_line(*args, **kwargs):
-        found = every(*args, **kwargs)
-        return replace(found, pairs=found.pairs[:1])
-
-    monkeypatch.setattr(matching, "match_lines", one_line)
+    _one_line_matched(monkeypatch)
     pose = _room_pair()
     k = min(pose.rivals)
     shared = [n for n in pose.notes if n in pose.rivals[k].notes]
