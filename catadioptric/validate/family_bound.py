@@ -407,7 +407,8 @@ def register_family_bound(vs) -> None:
                       description="For every pair of the benchmark, the label path's families that the detector's "
                                   "vote could find from the labelled lines' planes and the true directions (an "
                                   "upper bound for the image path's 'same families'; docs/relative_pose.md, \"What "
-                                  "the images could give\"). Needs the benchmark's rendered datasets.")
+                                  "the images could give\"); with --through-pose, the image path itself with its "
+                                  "detected lines grouped by the labels. Needs the benchmark's rendered datasets.")
     p.add_argument("--out", metavar="FILE", help="write the rows (one per pair, JSON) here")
     p.add_argument("--from-json", metavar="FILE", help="print the tables from rows written before (computes nothing)")
     p.add_argument("--spec", metavar="FILE", help="benchmark spec (default validate/relative_pose.toml)")
